@@ -1,0 +1,191 @@
+"""MuJoCo-backed player batches. One compiled MjModel holds every player of every environment,
+so one ``mj_step`` advances the whole batch and the rulebook reads joint state as arrays.
+
+Players work in their own frame (SPEC §1): each stands at x < 0 and faces +x. Player 1's copies
+are attached rotated 180 degrees about z, so the same joint angle means the same swing for both.
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+from rallysim.assets import asset_path
+from rallysim.core.rules import FORWARD
+
+SIMPLE_ACTIONS = ("target_orientation", "force", "movement")
+
+
+class SimpleBodies:
+    """N x P SIMPLE players (SPEC §5) in one MuJoCo model.
+
+    Per physics step the arm's drive is a stiff position servo solved implicitly (it would reach
+    its target within the step), limited to the 7 rad/s rate cap and then to the torque allowed
+    by the force action; MuJoCo integrates the arm under that torque. The base is kinematic and
+    slides along x at 5 * a2 m/s within its range.
+    """
+
+    max_target_angle = np.radians(85.0)
+    max_torque = 15.0  # N m at force action +1
+    max_rate = 7.0  # rad/s, Unity's default angular-speed cap
+    max_base_speed = 5.0  # m/s at movement action +-1
+    base_range = (-6.5, -1.0)  # own-frame x of the base centre
+
+    def __init__(self, n_envs: int, n_players: int = 1, dt: float = 0.02) -> None:
+        if n_envs < 1 or n_players not in (1, 2):
+            raise ValueError(f"need n_envs >= 1 and n_players in (1, 2), got {n_envs}, {n_players}")
+        self.n_envs, self.n_players, self.dt = n_envs, n_players, dt
+        self.model = build_simple_world(n_envs, n_players, dt)
+        self.data = mujoco.MjData(self.model)
+        shape = (n_envs, n_players)
+        # Views into MuJoCo's memory: writing them moves the bodies.
+        self.theta = self.data.qpos.reshape(shape)
+        self.omega = self.data.qvel.reshape(shape)
+        self.torque = self.data.ctrl.reshape(shape)
+        self.mocap = self.data.mocap_pos.reshape((*shape, 3))
+        self.forward = np.broadcast_to(FORWARD[:n_players], shape).copy()
+
+        geo = player_geometry()
+        self.pivot_z = geo["pivot_z"]
+        self.face_offset = geo["face_offset"]  # pivot -> face centre, along the arm
+        self.face_half = geo["face_half"]  # (thickness, across, along) half sizes
+        self.inertia = geo["inertia"]  # arm + face about the pivot
+        self.limit = geo["limit"]
+        self.base_z = geo["base_z"]
+
+        self.base_x = np.full(shape, -2.7)  # own frame
+        self.target = np.zeros(shape)
+        self.torque_limit = np.zeros(shape)
+        self.base_moved = np.zeros(shape, dtype=bool)
+        self._neg_limit = np.zeros(shape)
+        self._base_step = np.zeros(shape)  # metres per physics step
+        self._buf_x = np.zeros(shape)
+        self._buf_w = np.zeros(shape)
+        self._sync_mocap()
+        mujoco.mj_forward(self.model, self.data)
+
+    # -- state ---------------------------------------------------------------------------------
+    def reset(self, envs: np.ndarray, base_x: np.ndarray, theta: np.ndarray | float = 0.0) -> None:
+        """Place the players of ``envs`` at own-frame ``base_x`` (len(envs), P), arm at ``theta``."""
+        self.base_x[envs] = np.clip(base_x, *self.base_range)
+        self.theta[envs] = theta
+        self.omega[envs] = 0.0
+        self.torque[envs] = 0.0
+        self.target[envs] = theta
+        self.torque_limit[envs] = 0.0
+        self._neg_limit[envs] = 0.0
+        self._base_step[envs] = 0.0
+        self.base_moved[envs] = False
+        self._sync_mocap()
+
+    def set_actions(self, actions: np.ndarray) -> None:
+        """Hold ``actions`` (N, P, 3), already clipped to [-1, 1], for the next physics steps."""
+        np.multiply(actions[..., 0], self.max_target_angle, out=self.target)
+        np.multiply(actions[..., 1] + 1.0, 0.5 * self.max_torque, out=self.torque_limit)
+        np.negative(self.torque_limit, out=self._neg_limit)
+        np.multiply(actions[..., 2], self.max_base_speed * self.dt, out=self._base_step)
+
+    def physics_step(self) -> None:
+        """One physics step: slide the bases, drive the arms, integrate with MuJoCo.
+
+        Written with preallocated buffers and no ``np.clip``: at N = 256 NumPy's per-call
+        overhead, not arithmetic, is the cost."""
+        dt, x, w = self.dt, self._buf_x, self._buf_w
+        np.add(self.base_x, self._base_step, out=x)
+        np.maximum(x, self.base_range[0], out=x)
+        np.minimum(x, self.base_range[1], out=x)
+        np.not_equal(x, self.base_x, out=self.base_moved)
+        self.base_x[:] = x
+        np.multiply(self.forward, x, out=self.mocap[..., 0])
+
+        # drive: the rate that reaches the target within this step, capped, then torque-limited
+        np.subtract(self.target, self.theta, out=w)
+        w *= 1.0 / dt
+        np.maximum(w, -self.max_rate, out=w)
+        np.minimum(w, self.max_rate, out=w)
+        w -= self.omega
+        w *= self.inertia / dt
+        np.maximum(w, self._neg_limit, out=w)
+        np.minimum(w, self.torque_limit, out=self.torque)
+        mujoco.mj_step(self.model, self.data)
+        # Hard stops at +-85 degrees (the drive can overshoot its target when its torque is low).
+        if np.abs(self.theta, out=w).max() > self.limit:
+            over = w > self.limit
+            np.clip(self.theta, -self.limit, self.limit, out=self.theta)
+            self.omega[over] = 0.0
+
+    def _sync_mocap(self) -> None:
+        self.mocap[..., 0] = self.forward * self.base_x
+
+    # -- kinematics (own frame) ----------------------------------------------------------------
+    def face_centre(self) -> np.ndarray:
+        """(N, P, 3) own-frame centre of each racket face."""
+        s, c = np.sin(self.theta), np.cos(self.theta)
+        out = np.empty((*self.theta.shape, 3))
+        out[..., 0] = self.base_x + self.face_offset * s
+        out[..., 1] = 0.0
+        out[..., 2] = self.pivot_z + self.face_offset * c
+        return out
+
+    def face_velocity(self) -> np.ndarray:
+        """(N, P, 3) own-frame velocity of each face centre (arm rotation only, SPEC §5)."""
+        s, c = np.sin(self.theta), np.cos(self.theta)
+        out = np.zeros((*self.theta.shape, 3))
+        out[..., 0] = self.face_offset * self.omega * c
+        out[..., 2] = -self.face_offset * self.omega * s
+        return out
+
+    def arm_quaternion(self) -> np.ndarray:
+        """(N, P, 4) own-frame orientation (w, x, y, z) of each arm: a rotation about y."""
+        out = np.zeros((*self.theta.shape, 4))
+        out[..., 0] = np.cos(0.5 * self.theta)
+        out[..., 2] = np.sin(0.5 * self.theta)
+        return out
+
+
+def build_simple_world(n_envs: int, n_players: int, dt: float = 0.02) -> mujoco.MjModel:
+    """One MjModel with ``n_envs * n_players`` SIMPLE players, ordered env-major.
+
+    Nothing in it collides and the arm's hard stops are applied by ``SimpleBodies``, so contact
+    and constraint handling are switched off; the arms are gravity-compensated (SPEC §5)."""
+    spec = mujoco.MjSpec()
+    spec.option.timestep = dt
+    spec.option.integrator = mujoco.mjtIntegrator.mjINT_EULER
+    spec.option.disableflags |= (
+        mujoco.mjtDisableBit.mjDSBL_CONTACT | mujoco.mjtDisableBit.mjDSBL_CONSTRAINT
+    )
+    player_xml = asset_path("simple_player.xml").read_text()
+    for e in range(n_envs):
+        for p in range(n_players):
+            frame = spec.worldbody.add_frame()
+            if p == 1:
+                frame.quat = [0.0, 0.0, 0.0, 1.0]  # 180 degrees about z
+            spec.attach(mujoco.MjSpec.from_string(player_xml), prefix=f"e{e}p{p}_", frame=frame)
+    return spec.compile()
+
+
+_GEOMETRY: dict | None = None
+
+
+def player_geometry() -> dict:
+    """Dimensions the rulebook needs, read from the compiled player model."""
+    global _GEOMETRY
+    if _GEOMETRY is None:
+        m = mujoco.MjModel.from_xml_path(str(asset_path("simple_player.xml")))
+        d = mujoco.MjData(m)
+        mujoco.mj_forward(m, d)
+        arm = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, "arm")
+        base = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, "base")
+        face = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "face")
+        joint = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, "arm")
+        full = np.zeros((m.nv, m.nv))
+        mujoco.mj_fullM(m, d, full)
+        _GEOMETRY = {
+            "base_z": float(m.body_pos[base][2]),
+            "pivot_z": float(m.body_pos[base][2] + m.body_pos[arm][2]),
+            "face_offset": float(m.geom_pos[face][2]),
+            "face_half": m.geom_size[face].copy(),
+            "inertia": float(full[0, 0]),
+            "limit": float(m.jnt_range[joint][1]),
+        }
+    return _GEOMETRY

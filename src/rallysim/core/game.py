@@ -1,0 +1,250 @@
+"""N games at once: apply actions, run the physics steps of one decision, judge them by the rules.
+
+``Game`` owns the shuttle and the turn state; ``SimpleBodies`` owns the players. Views (the
+Gymnasium and PettingZoo envs) turn ``Game`` state and ``Events`` into observations and rewards.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+
+import numpy as np
+
+from rallysim.core import rules
+from rallysim.core.bodies import SimpleBodies
+from rallysim.core.court import Court
+from rallysim.core.shuttle import RADIUS, ShuttleState, make_shuttle_model
+
+PHYSICS_DT = 0.02
+PHYSICS_STEPS_PER_DECISION = 5
+
+
+@dataclass
+class Events:
+    """What happened during one decision, per environment (and per player where it says P)."""
+
+    hit: np.ndarray  # (N, P) bool: the player hit the shuttle
+    hit_speed: np.ndarray  # (N, P) racket face speed at the hit, m/s
+    hit_point: np.ndarray  # (N, P, 3) world position of the shuttle at the hit
+    net_touch: np.ndarray  # (N,) bool: the shuttle touched the net (first touch since the last shot)
+    landed: np.ndarray  # (N,) bool: the shuttle's centre dropped below z = 0
+    land_point: np.ndarray  # (N, 3) world landing point
+    land_side: np.ndarray  # (N,) int: the player whose half it landed in
+    land_in: np.ndarray  # (N,) bool: inside that half's court (paper trigger box or full half)
+    approach_good: np.ndarray  # (N, P) physics steps the base closed in on the shuttle (shaping)
+    approach_bad: np.ndarray  # (N, P) physics steps it did not
+
+    @classmethod
+    def empty(cls, n: int, p: int) -> Events:
+        return cls(
+            hit=np.zeros((n, p), bool), hit_speed=np.zeros((n, p)), hit_point=np.zeros((n, p, 3)),
+            net_touch=np.zeros(n, bool), landed=np.zeros(n, bool), land_point=np.zeros((n, 3)),
+            land_side=np.zeros(n, np.int64), land_in=np.zeros(n, bool),
+            approach_good=np.zeros((n, p), np.int64), approach_bad=np.zeros((n, p), np.int64),
+        )
+
+    def clear(self) -> None:
+        for f in fields(self):
+            getattr(self, f.name).fill(0)
+
+
+class Game:
+    """N batched SIMPLE games with P in {1, 2} players each, on one shuttle model.
+
+    ``rearm_on_net`` reproduces the original rally's net rule (a net touch re-arms both players);
+    ``shaping`` counts the low-level task's approach steps before each player's first hit.
+    """
+
+    def __init__(self, n_envs: int, n_players: int = 1, shuttle: str = "paper",
+                 seed: int | None = None, shaping: bool = False,
+                 rearm_on_net: bool = False) -> None:
+        self.n_envs, self.n_players = n_envs, n_players
+        self.court = Court.from_mjcf()
+        self.flight = make_shuttle_model(shuttle, PHYSICS_DT)
+        self.bodies = SimpleBodies(n_envs, n_players, PHYSICS_DT)
+        self.shuttle = ShuttleState.zeros(n_envs)
+        # One stream per environment, so that environment i of a batch seeded s replays a
+        # single environment seeded s + i (Gymnasium's convention for vector seeds).
+        self.rngs = [np.random.default_rng(None if seed is None else seed + i) for i in range(n_envs)]
+        self.shaping, self.rearm_on_net = shaping, rearm_on_net
+        n, p = n_envs, n_players
+        self.in_play = np.zeros(n, bool)
+        self.armed = np.zeros((n, p), bool)
+        self.has_hit = np.zeros((n, p), bool)
+        self.last_hitter = np.full(n, -1)  # -1: the serve
+        self.hits = np.zeros(n, np.int64)
+        self.net_touched = np.zeros(n, bool)
+        self.events = Events.empty(n, p)
+        # Boxes of the swept test, one column each: P faces (in their own frames), net, floor.
+        half = self.bodies.face_half + RADIUS
+        net_lo, net_hi = rules.net_box(self.court, RADIUS)
+        floor_lo, floor_hi = rules.floor_box()
+        self._lo = np.stack([-half] * p + [net_lo, floor_lo])
+        self._hi = np.stack([half] * p + [net_hi, floor_hi])
+        self._fwd = self.bodies.forward  # (N, P)
+        self._own_buf = np.zeros((n, p, 3))
+        self._q = np.zeros((n, p + 2, 3))  # tested points at the end of the step
+        self._q0 = np.zeros((n, p + 2, 3))  # ... and at its start
+        self._gap = np.zeros((n, p))  # |base x - shuttle x| for shaping
+
+    # -- episodes -------------------------------------------------------------------------------
+    def seed(self, envs: np.ndarray, seed: int | None) -> None:
+        """Restart the random streams of ``envs``: env ``envs[j]`` gets ``seed + j``."""
+        for j, e in enumerate(np.asarray(envs)):
+            self.rngs[e] = np.random.default_rng(None if seed is None else seed + j)
+
+    def reset(self, envs: np.ndarray, receiver: np.ndarray | int = 0,
+              base_x: np.ndarray | None = None, theta: np.ndarray | float = 0.0) -> None:
+        """Serve a new shuttle in ``envs`` (indices) toward ``receiver``; place the players at
+        own-frame ``base_x`` (len(envs), P), arms at ``theta``."""
+        envs = np.asarray(envs, dtype=np.int64)
+        k = len(envs)
+        receiver = np.broadcast_to(np.asarray(receiver, np.int64), (k,))
+        if base_x is None:
+            base_x = np.full((k, self.n_players), -2.7)
+        self.bodies.reset(envs, base_x, theta)
+        u = np.stack([self.rngs[e].random(rules.SERVE_DRAWS) for e in envs])
+        pos, vel = rules.sample_serve(u, receiver)
+        self.shuttle.pos[envs], self.shuttle.vel[envs] = pos, vel
+        shot = np.zeros(self.n_envs, bool)
+        shot[envs] = True
+        self.shuttle.shot(shot)
+        self.in_play[envs] = True
+        self.armed[envs] = False
+        self.armed[envs, receiver] = True
+        self.has_hit[envs] = False
+        self.last_hitter[envs] = -1
+        self.hits[envs] = 0
+        self.net_touched[envs] = False
+        self._refresh()
+
+    # -- one decision ---------------------------------------------------------------------------
+    def step(self, actions: np.ndarray) -> Events:
+        """Hold ``actions`` (N, P, 3) in [-1, 1] for one decision; return its events."""
+        self.bodies.set_actions(actions)
+        self.events.clear()
+        for _ in range(PHYSICS_STEPS_PER_DECISION):
+            self._physics_step()
+        return self.events
+
+    def _own_into(self, world: np.ndarray, out: np.ndarray) -> None:
+        """(N, 3) world positions -> (N, P, 3) ``out`` in each player's own frame."""
+        out[:] = world[:, None, :]
+        out[..., 0] *= self._fwd
+        out[..., 1] *= self._fwd
+
+    def _observe_shuttle(self) -> None:
+        """Fill ``self._q`` for the current state: the shuttle in each face's frame (normal,
+        across, along the arm) in columns [0, P), and in the world in the net and floor columns."""
+        b, own, q, P = self.bodies, self._own_buf, self._q, self.n_players
+        self._own_into(self.shuttle.pos, own)
+        s, c = np.sin(b.theta), np.cos(b.theta)
+        dx = own[..., 0] - b.base_x - b.face_offset * s
+        dz = own[..., 2] - b.pivot_z - b.face_offset * c
+        q[:, :P, 0] = dx * c - dz * s
+        q[:, :P, 1] = own[..., 1]
+        q[:, :P, 2] = dx * s + dz * c
+        q[:, P] = self.shuttle.pos
+        q[:, P + 1] = self.shuttle.pos
+
+    def _refresh(self) -> None:
+        self._observe_shuttle()
+        self._gap = np.abs(self._own_buf[..., 0] - self.bodies.base_x)
+
+    def _physics_step(self) -> None:
+        b, sh, ev, P = self.bodies, self.shuttle, self.events, self.n_players
+        live = self.in_play.copy()
+        theta0 = b.theta.copy()
+        p0 = sh.pos.copy()
+        q0, self._q = self._q, self._q0
+        self._q0 = q0
+        b.physics_step()
+        self.flight.advance(sh, PHYSICS_DT)
+        if not live.all():  # landed shuttles stay where they fell until their env is reset
+            sh.pos[~live] = p0[~live]
+            sh.vel[~live] = 0.0
+        self._observe_shuttle()
+
+        if self.shaping:
+            gap = np.abs(self._own_buf[..., 0] - b.base_x)
+            good = b.base_moved & (gap < self._gap)
+            todo = live[:, None] & ~self.has_hit
+            ev.approach_good += good & todo
+            ev.approach_bad += ~good & todo
+            self._gap = gap
+
+        # One swept test for everything: the faces (in their frames), the net and the floor.
+        met, t = rules.segment_box_entry(q0, self._q, self._lo, self._hi)
+        hit = met[:, :P] & self.armed & live[:, None]
+        if hit.any():
+            self._apply_hits(hit, t[:, :P], theta0, p0)
+            self._observe_shuttle()
+            met2, t2 = rules.segment_box_entry(q0[:, P:], self._q[:, P:], self._lo[P:],
+                                               self._hi[P:])
+            met[:, P:], t[:, P:] = met2, t2
+
+        touched = met[:, P] & live
+        if touched.any():
+            self._apply_net(touched, t[:, P], p0)
+
+        landed = met[:, P + 1] & live
+        if landed.any():
+            idx = np.flatnonzero(landed)
+            point = p0[idx] + t[idx, P + 1, None] * (sh.pos[idx] - p0[idx])
+            point[:, 2] = 0.0
+            side = (point[:, 0] > 0).astype(np.int64)
+            ev.landed[idx] = True
+            ev.land_point[idx] = point
+            ev.land_side[idx] = side
+            ev.land_in[idx] = rules.landing_in(self.court, np.abs(point[:, 0]), point[:, 1],
+                                               self.flight.full_court)
+            self.in_play[idx] = False
+            self.armed[idx] = False
+
+    def _apply_hits(self, hit: np.ndarray, t: np.ndarray, theta0: np.ndarray,
+                    p0: np.ndarray) -> None:
+        """Shuttles met by an armed face leave at twice the face centre's velocity (SPEC §5)."""
+        b, sh, ev = self.bodies, self.shuttle, self.events
+        env, player = np.nonzero(hit)
+        # one hitter per shuttle: the first in player order (only one is armed in a rally)
+        env, first = np.unique(env, return_index=True)
+        player = player[first]
+        th = theta0[env, player] + t[env, player] * (b.theta[env, player] - theta0[env, player])
+        w = b.omega[env, player]
+        f = self._fwd[env, player]
+        racket = np.stack([f * b.face_offset * w * np.cos(th), np.zeros(len(env)),
+                           -b.face_offset * w * np.sin(th)], axis=1)
+        at = p0[env] + t[env, player][:, None] * (sh.pos[env] - p0[env])
+        sh.vel[env] = 2.0 * racket
+        sh.pos[env] = at + sh.vel[env] * (1.0 - t[env, player])[:, None] * PHYSICS_DT
+        mask = np.zeros(self.n_envs, bool)
+        mask[env] = True
+        sh.shot(mask)
+        ev.hit[env, player] = True
+        ev.hit_speed[env, player] = np.linalg.norm(racket, axis=1)
+        ev.hit_point[env, player] = at
+        self.has_hit[env, player] = True
+        self.armed[env, player] = False
+        if self.n_players == 2:
+            self.armed[env, 1 - player] = True
+        self.last_hitter[env] = player
+        self.hits[env] += 1
+        self.net_touched[env] = False
+
+    def _apply_net(self, touched: np.ndarray, t: np.ndarray, p0: np.ndarray) -> None:
+        sh, ev = self.shuttle, self.events
+        idx = np.flatnonzero(touched)
+        first = idx[~self.net_touched[idx]]
+        ev.net_touch[first] = True
+        self.net_touched[idx] = True
+        if self.flight.net_blocks:
+            # Blocked: the shuttle stops against the net face it reached and drops on that side.
+            at = p0[idx] + t[idx, None] * (sh.pos[idx] - p0[idx])
+            side = np.sign(p0[idx, 0])
+            side[side == 0] = 1.0
+            at[:, 0] = side * (self.court.net_half_thickness + RADIUS)
+            sh.pos[idx] = at
+            sh.vel[idx, 0] = 0.0
+            self._observe_shuttle()
+        elif self.rearm_on_net and self.n_players == 2:
+            self.armed[first] = True

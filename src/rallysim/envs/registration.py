@@ -1,0 +1,18 @@
+"""Gymnasium registration of RallySim's environments (run on ``import rallysim``)."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+
+SIMPLE_RETURN_ID = "RallySim/SimpleReturn-v0"
+
+
+def register_envs() -> None:
+    if SIMPLE_RETURN_ID in gym.registry:
+        return
+    gym.register(
+        id=SIMPLE_RETURN_ID,
+        entry_point="rallysim.envs.simple_return_v0:SimpleReturnEnv",
+        vector_entry_point="rallysim.envs.simple_return_v0:SimpleReturnVectorEnv",
+        max_episode_steps=None,  # the env truncates at 1000 decisions itself (SPEC §2)
+    )

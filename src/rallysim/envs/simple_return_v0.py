@@ -1,0 +1,312 @@
+"""``RallySim/SimpleReturn-v0``: the SIMPLE low-level task (SPEC §5-6).
+
+One SIMPLE player stands at x < 0. A machine serve comes over the net; the player must hit it so
+that it lands ``target_depth`` metres beyond the net. One hit per episode; the episode ends when
+the shuttle lands.
+
+## Action space: ``Box(-1, 1, (3,), float32)``
+| index | name | effect |
+|---|---|---|
+| 0 | target orientation | arm target angle = 85 deg * a0 (0 = upright, + leans toward the net) |
+| 1 | force | torque limit of the arm's servo = 15 * (a1 + 1) / 2 N m |
+| 2 | movement | base velocity = 5 * a2 m/s along x, base centre kept in [-6.5, -1.0] m |
+
+Actions outside [-1, 1] are clipped; NaN, inf or a wrong shape raise ``ValueError``.
+The action is held for the 5 physics steps (0.02 s each) of one decision (0.1 s).
+
+## Observation space: ``Box(-1, 1, (17,), float32)``
+Indices 0-15 are the player observation of ``rallysim.envs.simple_obs`` (base position, arm
+quaternion, racket face velocity, shuttle position and velocity, all own-frame and scaled);
+index 16 is the target depth, (d* - 4) / 2. Values are clipped into the bounds.
+
+## Rewards (summed over the decision's physics steps)
+| term | value |
+|---|---|
+| shaping, each physics step before the hit | +0.001 if the base moved and its x-distance to the shuttle shrank, else -0.005 |
+| hit | +1 |
+| landing, if hit, no net touch since the hit, and in the opponent court | exp(-0.5 * abs(depth - d*)) |
+
+## Starting state
+The serve of SPEC §4.3 (toward this player). The base starts at x ~ U[-6.5, -1.0] and the arm
+at an angle ~ U[-85, 85] deg (the original never reset its robots, so they started wherever the
+previous episode left them; ours draws that from the seed). The goal d* ~ U[2, 6] m.
+
+## Episode end
+Terminates when the shuttle's centre drops below z = 0; truncates after 1000 decisions.
+
+## Arguments
+| argument | default | meaning |
+|---|---|---|
+| ``shuttle`` | ``"paper"`` | flight model: ``"paper"``, ``"paper-alg1"`` or ``"aero"`` |
+| ``target_depth_range`` | ``(2.0, 6.0)`` | goals are drawn uniformly from this range |
+| ``max_decisions`` | ``1000`` | truncation |
+
+``reset(options=...)`` accepts ``target_depth`` (metres, in [2, 6]), ``base_x`` (metres, in
+[-6.5, -1]) and ``arm_angle`` (radians, in [-85, 85] deg); the vector env takes a scalar or one
+value per environment.
+
+## ``info``
+``hit``, ``racket_speed`` (m/s at the hit, else 0), ``net_touch``, ``landed``,
+``landing_point`` (world, m), ``landing_depth`` (m beyond the net), ``landing_error``
+(abs(depth - d*)), ``landed_in``, ``target_depth``. The single env gives ``racket_speed`` only on
+a hit and the landing keys only at the landing; the vector env gives arrays for all keys, with
+NaN where a value does not apply and Gymnasium's ``_key`` masks marking where it does.
+
+## Version history
+- v0: first release.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+from gymnasium.vector import VectorEnv
+
+from rallysim.core.game import Game
+from rallysim.envs.simple_obs import (
+    PLAYER_OBS_SIZE,
+    TARGET_DEPTH_RANGE,
+    normalise_depth,
+    player_observations,
+)
+from rallysim.envs.validation import check_options, validate_actions
+
+try:  # Gymnasium >= 1.1
+    from gymnasium.vector import AutoresetMode
+
+    NEXT_STEP, SAME_STEP = AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP
+except ImportError:  # pragma: no cover - Gymnasium 1.0
+    NEXT_STEP, SAME_STEP = "NextStep", "SameStep"
+
+OBS_SIZE = PLAYER_OBS_SIZE + 1
+ACTION_SIZE = 3
+MAX_DECISIONS = 1000
+R_HIT = 1.0
+SHAPING_GOOD = 0.001
+SHAPING_BAD = -0.005
+R_DIST_RATE = 0.5
+RESET_OPTIONS = ("target_depth", "base_x", "arm_angle")
+LANDING_KEYS = ("landing_point", "landing_depth", "landing_error", "landed_in")
+
+
+class ReturnTask:
+    """The low-level task over N batched games: goals, rewards, ends, observations."""
+
+    def __init__(self, num_envs: int, shuttle: str = "paper", seed: int | None = None,
+                 target_depth_range: tuple[float, float] = TARGET_DEPTH_RANGE,
+                 max_decisions: int = MAX_DECISIONS) -> None:
+        lo, hi = map(float, target_depth_range)
+        if not TARGET_DEPTH_RANGE[0] <= lo <= hi <= TARGET_DEPTH_RANGE[1]:
+            raise ValueError(f"target_depth_range must lie within {TARGET_DEPTH_RANGE}, got "
+                             f"{target_depth_range}")
+        if max_decisions < 1:
+            raise ValueError(f"max_decisions must be >= 1, got {max_decisions}")
+        self.n = num_envs
+        self.game = Game(num_envs, 1, shuttle=shuttle, seed=seed, shaping=True)
+        self.depth_range = (lo, hi)
+        self.max_decisions = max_decisions
+        self.goal = np.zeros(num_envs)
+        self.elapsed = np.zeros(num_envs, np.int64)
+
+    def reset(self, envs: np.ndarray, options: dict[str, Any] | None = None) -> None:
+        envs = np.asarray(envs, np.int64)
+        opts = check_options(options, RESET_OPTIONS)
+        b = self.game.bodies
+        rngs = [self.game.rngs[e] for e in envs]
+        base_x = _option(opts, "base_x", len(envs), b.base_range,
+                         lambda: np.array([r.uniform(*b.base_range) for r in rngs]))
+        limit = b.limit
+        theta = _option(opts, "arm_angle", len(envs), (-limit, limit),
+                        lambda: np.array([r.uniform(-limit, limit) for r in rngs]))
+        self.game.reset(envs, receiver=0, base_x=base_x[:, None], theta=theta[:, None])
+        self.goal[envs] = _option(opts, "target_depth", len(envs), TARGET_DEPTH_RANGE,
+                                  lambda: np.array([r.uniform(*self.depth_range) for r in rngs]))
+        self.elapsed[envs] = 0
+
+    def observe(self) -> np.ndarray:
+        obs = np.empty((self.n, OBS_SIZE))
+        obs[:, :PLAYER_OBS_SIZE] = player_observations(self.game)[:, 0]
+        obs[:, PLAYER_OBS_SIZE] = normalise_depth(self.goal)
+        return np.clip(obs, -1.0, 1.0).astype(np.float32)
+
+    def step(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
+        """Advance all N games by one decision with validated, clipped ``actions`` (N, 3)."""
+        game = self.game
+        ev = game.step(actions[:, None, :])
+        self.elapsed += 1
+        reward = SHAPING_GOOD * ev.approach_good[:, 0] + SHAPING_BAD * ev.approach_bad[:, 0]
+        reward = reward + R_HIT * ev.hit[:, 0]
+        depth = ev.land_point[:, 0]  # player 0's own frame is the world frame
+        error = np.where(ev.landed, np.abs(depth - self.goal), np.nan)
+        scored = (ev.landed & game.has_hit[:, 0] & ~game.net_touched & (ev.land_side == 1)
+                  & ev.land_in)
+        reward = reward + np.where(scored, np.exp(-R_DIST_RATE * np.nan_to_num(error)), 0.0)
+        terminated = ev.landed.copy()
+        truncated = ~terminated & (self.elapsed >= self.max_decisions)
+        info = {
+            "hit": ev.hit[:, 0].copy(),
+            "racket_speed": ev.hit_speed[:, 0].copy(),
+            "net_touch": ev.net_touch.copy(),
+            "landed": ev.landed.copy(),
+            "landing_point": ev.land_point.copy(),
+            "landing_depth": np.where(ev.landed, depth, np.nan),
+            "landing_error": error,
+            "landed_in": (ev.landed & (ev.land_side == 1) & ev.land_in),
+            "target_depth": self.goal.copy(),
+        }
+        # Gymnasium's vector convention: "_key" marks the environments where "key" applies.
+        info["_racket_speed"] = info["hit"].copy()
+        for key in LANDING_KEYS:
+            info["_" + key] = info["landed"].copy()
+        return reward, terminated, truncated, info
+
+
+def _option(opts: dict, key: str, k: int, bounds: tuple[float, float], draw) -> np.ndarray:
+    """Option ``key`` as k values checked against ``bounds``, or ``draw()`` when absent."""
+    if key not in opts:
+        return draw()
+    value = np.broadcast_to(np.asarray(opts[key], dtype=np.float64), (k,)).copy()
+    if not np.all(np.isfinite(value)):
+        raise ValueError(f"option {key!r} must be finite, got {opts[key]!r}")
+    lo, hi = bounds
+    if np.any(value < lo - 1e-9) or np.any(value > hi + 1e-9):
+        raise ValueError(f"option {key!r} must lie in [{lo:.4g}, {hi:.4g}], got {opts[key]!r}")
+    return value
+
+
+def _spaces() -> tuple[spaces.Box, spaces.Box]:
+    obs = spaces.Box(-1.0, 1.0, (OBS_SIZE,), np.float32)
+    act = spaces.Box(-1.0, 1.0, (ACTION_SIZE,), np.float32)
+    return obs, act
+
+
+class SimpleReturnEnv(gym.Env):
+    """One environment of the SIMPLE low-level task. See the module docstring."""
+
+    metadata = {"render_modes": [], "render_fps": 10}
+
+    def __init__(self, shuttle: str = "paper",
+                 target_depth_range: tuple[float, float] = TARGET_DEPTH_RANGE,
+                 max_decisions: int = MAX_DECISIONS, render_mode: str | None = None) -> None:
+        if render_mode is not None:
+            raise ValueError(f"render_mode {render_mode!r} is not supported; valid: None")
+        self.observation_space, self.action_space = _spaces()
+        self.task = ReturnTask(1, shuttle, None, target_depth_range, max_decisions)
+        self._done = True
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        super().reset(seed=seed)
+        if seed is not None:
+            self.task.game.seed(np.array([0]), seed)
+        self.task.reset(np.array([0]), options)
+        self._done = False
+        return self.task.observe()[0], {"target_depth": float(self.task.goal[0])}
+
+    def step(self, action):
+        if self._done:
+            raise RuntimeError("the episode has ended (or never began): call reset() first")
+        a = validate_actions(action, (ACTION_SIZE,))
+        reward, term, trunc, info = self.task.step(a[None, :])
+        self._done = bool(term[0] or trunc[0])
+        # Event values appear only when their event happened (Gymnasium's single-env habit).
+        keep = {"hit", "net_touch", "landed", "target_depth"}
+        if info["hit"][0]:
+            keep.add("racket_speed")
+        if info["landed"][0]:
+            keep |= set(LANDING_KEYS)
+        return (self.task.observe()[0], float(reward[0]), bool(term[0]), bool(trunc[0]),
+                {k: _scalar(v[0]) for k, v in info.items() if k in keep})
+
+
+def _scrub(info: dict, envs: np.ndarray, goal: np.ndarray) -> None:
+    """Blank the events of ``envs`` (they were only being reset this step)."""
+    for key, value in info.items():
+        if (value.dtype == bool and not key.startswith("_")) or key.startswith("_"):
+            value[envs] = False
+        elif key.startswith("landing_") and key != "landing_point":
+            value[envs] = np.nan
+        else:
+            value[envs] = 0.0
+    info["target_depth"][envs] = goal[envs]
+
+
+def _scalar(v):
+    return v.item() if np.ndim(v) == 0 else v
+
+
+class SimpleReturnVectorEnv(VectorEnv):
+    """N environments of the SIMPLE low-level task stepped together in one call.
+
+    The fast path: one MuJoCo model holds all N players and the rules run as array code, so
+    there are no per-environment Python objects. ``autoreset_mode`` is ``"next_step"`` (the
+    Gymnasium default: a finished environment is reset by the following ``step``, whose action
+    for it is ignored) or ``"same_step"`` (reset at once; the last observation and info are in
+    ``info["final_obs"]`` and ``info["final_info"]``, masked by ``info["_final_obs"]``).
+    """
+
+    metadata = {"render_modes": [], "render_fps": 10, "autoreset_mode": NEXT_STEP}
+
+    def __init__(self, num_envs: int = 1, shuttle: str = "paper",
+                 target_depth_range: tuple[float, float] = TARGET_DEPTH_RANGE,
+                 max_decisions: int = MAX_DECISIONS, autoreset_mode: str = "next_step",
+                 render_mode: str | None = None, seed: int | None = None) -> None:
+        if not isinstance(num_envs, int | np.integer) or num_envs < 1:
+            raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
+        if render_mode is not None:
+            raise ValueError(f"render_mode {render_mode!r} is not supported; valid: None")
+        modes = {"next_step": NEXT_STEP, "same_step": SAME_STEP}
+        mode = getattr(autoreset_mode, "value", autoreset_mode)
+        key = {"NextStep": "next_step", "SameStep": "same_step"}.get(mode, mode)
+        if key not in modes:
+            raise ValueError(f"unknown autoreset_mode {autoreset_mode!r}; valid: "
+                             f"{', '.join(map(repr, modes))}")
+        self.metadata = {**self.metadata, "autoreset_mode": modes[key]}
+        self._same_step = key == "same_step"
+        self.num_envs = int(num_envs)
+        self.single_observation_space, self.single_action_space = _spaces()
+        n = self.num_envs
+        self.observation_space = spaces.Box(-1.0, 1.0, (n, OBS_SIZE), np.float32)
+        self.action_space = spaces.Box(-1.0, 1.0, (n, ACTION_SIZE), np.float32)
+        self.task = ReturnTask(n, shuttle, seed, target_depth_range, max_decisions)
+        self._needs_reset = np.ones(n, bool)
+        self._all = np.arange(n)
+
+    def reset(self, *, seed: int | list[int] | None = None,
+              options: dict[str, Any] | None = None):
+        if seed is not None:
+            seeds = [seed + i for i in range(self.num_envs)] if np.isscalar(seed) else list(seed)
+            if len(seeds) != self.num_envs:
+                raise ValueError(f"expected {self.num_envs} seeds, got {len(seeds)}")
+            for e, s in enumerate(seeds):
+                self.task.game.seed(np.array([e]), s)
+        self.task.reset(self._all, options)
+        self._needs_reset[:] = False
+        return self.task.observe(), {"target_depth": self.task.goal.copy()}
+
+    def step(self, actions):
+        a = validate_actions(actions, (self.num_envs, ACTION_SIZE))
+        task = self.task
+        pending = np.flatnonzero(self._needs_reset)
+        reward, term, trunc, info = task.step(a)
+        if len(pending):  # next-step autoreset: these envs ignore their action and reset
+            task.reset(pending)
+            reward[pending] = 0.0
+            term[pending] = trunc[pending] = False
+            _scrub(info, pending, task.goal)
+        done = term | trunc
+        obs = task.observe()
+        if self._same_step and done.any():
+            info["final_obs"] = np.where(done[:, None], obs, np.nan).astype(np.float32)
+            info["_final_obs"] = done.copy()
+            info["final_info"] = {k: v.copy() for k, v in info.items() if not k.startswith(
+                ("final", "_final"))}
+            info["_final_info"] = done.copy()
+            task.reset(np.flatnonzero(done))
+            obs = task.observe()
+            self._needs_reset[:] = False
+        else:
+            self._needs_reset = done
+        return obs, reward, term, trunc, info

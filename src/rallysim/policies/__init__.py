@@ -1,0 +1,5 @@
+"""Controllers that act in RallySim's envs: scripted, random and (later) trained policies."""
+
+from rallysim.policies.scripted import ScriptedController
+
+__all__ = ["ScriptedController"]
