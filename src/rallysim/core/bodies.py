@@ -66,7 +66,8 @@ class SimpleBodies:
 
     # -- state ---------------------------------------------------------------------------------
     def reset(self, envs: np.ndarray, base_x: np.ndarray, theta: np.ndarray | float = 0.0) -> None:
-        """Place the players of ``envs`` at own-frame ``base_x`` (len(envs), P), arm at ``theta``."""
+        """Place the players of ``envs`` at own-frame ``base_x`` (len(envs), P), arms at ``theta``.
+        """
         self.base_x[envs] = np.clip(base_x, *self.base_range)
         self.theta[envs] = theta
         self.omega[envs] = 0.0

@@ -26,7 +26,7 @@ class Events:
     hit: np.ndarray  # (N, P) bool: the player hit the shuttle
     hit_speed: np.ndarray  # (N, P) racket face speed at the hit, m/s
     hit_point: np.ndarray  # (N, P, 3) world position of the shuttle at the hit
-    net_touch: np.ndarray  # (N,) bool: the shuttle touched the net (first touch since the last shot)
+    net_touch: np.ndarray  # (N,) bool: first net touch since the last shot
     landed: np.ndarray  # (N,) bool: the shuttle's centre dropped below z = 0
     land_point: np.ndarray  # (N, 3) world landing point
     land_side: np.ndarray  # (N,) int: the player whose half it landed in
@@ -65,7 +65,8 @@ class Game:
         self.shuttle = ShuttleState.zeros(n_envs)
         # One stream per environment, so that environment i of a batch seeded s replays a
         # single environment seeded s + i (Gymnasium's convention for vector seeds).
-        self.rngs = [np.random.default_rng(None if seed is None else seed + i) for i in range(n_envs)]
+        self.rngs = [np.random.default_rng(None if seed is None else seed + i)
+                     for i in range(n_envs)]
         self.shaping, self.rearm_on_net = shaping, rearm_on_net
         n, p = n_envs, n_players
         self.in_play = np.zeros(n, bool)
@@ -238,13 +239,16 @@ class Game:
         ev.net_touch[first] = True
         self.net_touched[idx] = True
         if self.flight.net_blocks:
-            # Blocked: the shuttle stops against the net face it reached and drops on that side.
-            at = p0[idx] + t[idx, None] * (sh.pos[idx] - p0[idx])
-            side = np.sign(p0[idx, 0])
-            side[side == 0] = 1.0
-            at[:, 0] = side * (self.court.net_half_thickness + RADIUS)
-            sh.pos[idx] = at
-            sh.vel[idx, 0] = 0.0
-            self._observe_shuttle()
+            # Blocked: a shuttle moving into the net stops against the face it reached and
+            # drops on that side (one that already rests against it just falls).
+            side = np.where(p0[idx, 0] < 0, -1.0, 1.0)
+            into = side * (sh.pos[idx, 0] - p0[idx, 0]) < 0
+            idx, side = idx[into], side[into]
+            if len(idx):
+                at = p0[idx] + t[idx, None] * (sh.pos[idx] - p0[idx])
+                at[:, 0] = side * (self.court.net_half_thickness + RADIUS)
+                sh.pos[idx] = at
+                sh.vel[idx, 0] = 0.0
+                self._observe_shuttle()
         elif self.rearm_on_net and self.n_players == 2:
             self.armed[first] = True

@@ -120,7 +120,7 @@ class ScriptedController:
         run_up = np.where(remainder < 0.5 * DECISION, remainder + DECISION, remainder)
         windup = np.clip(align - self.rate * run_up, -self.limit, self.limit)
         swing_now = tau <= run_up + 1e-9
-        coming = np.isfinite(cost[rows, best]) & (vel[:, 0] < 0.0)  # the shuttle heads toward this player
+        coming = np.isfinite(cost[rows, best]) & (vel[:, 0] < 0.0)  # heading for this player
         target = np.where(swing_now, self.max_target, windup)
         target = np.where(coming, target, theta)
         actions[:, 0] = target / self.max_target

@@ -1,0 +1,217 @@
+"""RallySim/SimpleReturn-v0: API, rewards, determinism, bad input (SPEC §6, issue #2)."""
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+
+import rallysim  # noqa: F401  (registers the envs)
+from rallysim.envs.simple_return_v0 import SimpleReturnEnv, SimpleReturnVectorEnv
+from rallysim.policies import ScriptedController
+
+
+def test_registered_and_checked():
+    env = gym.make("RallySim/SimpleReturn-v0")
+    assert env.observation_space.shape == (17,) and env.action_space.shape == (3,)
+    check_env(env.unwrapped)
+    vec = gym.make_vec("RallySim/SimpleReturn-v0", num_envs=4)
+    assert isinstance(vec, SimpleReturnVectorEnv) and vec.num_envs == 4
+
+
+def test_observations_stay_in_bounds_under_random_play():
+    env = SimpleReturnVectorEnv(64, seed=1)
+    obs, _ = env.reset(seed=1)
+    rng = np.random.default_rng(0)
+    for _ in range(300):
+        assert obs.dtype == np.float32 and obs.shape == (64, 17)
+        assert np.all(obs >= -1) and np.all(obs <= 1)
+        obs, *_ = env.step(rng.uniform(-3, 3, (64, 3)))
+
+
+def rollout_single(seed, actions):
+    env = SimpleReturnEnv()
+    obs, _ = env.reset(seed=seed)
+    out = [obs]
+    for a in actions:
+        obs, r, term, trunc, _ = env.step(a)
+        out.append(np.append(obs, r))
+        if term or trunc:
+            break
+    return out
+
+
+def test_same_seed_same_trajectory_and_vector_matches_single():
+    rng = np.random.default_rng(0)
+    actions = rng.uniform(-1, 1, (40, 3, 3))
+    a = rollout_single(7, actions[:, 0])
+    b = rollout_single(7, actions[:, 0])
+    assert all(np.array_equal(x, y) for x, y in zip(a, b, strict=True))
+    vec = SimpleReturnVectorEnv(3)
+    obs, _ = vec.reset(seed=5)
+    singles = [rollout_single(5 + i, actions[:, i]) for i in range(3)]
+    for i in range(3):
+        assert np.array_equal(obs[i], singles[i][0])
+    for k in range(40):
+        obs, r, _term, _trunc, _ = vec.step(actions[k])
+        for i in range(3):
+            if k + 1 < len(singles[i]):
+                assert np.array_equal(np.append(obs[i], r[i]), singles[i][k + 1])
+
+
+def test_bad_actions_raise_and_leave_state_untouched():
+    env = SimpleReturnVectorEnv(2, seed=0)
+    env.reset(seed=0)
+    game = env.task.game
+    before = (game.shuttle.pos.copy(), game.bodies.theta.copy(), env.task.elapsed.copy())
+    for bad, word in [(np.full((2, 3), np.nan), "NaN"), (np.array([[np.inf, 0, 0], [0, 0, 0]]),
+                      "inf"), (np.zeros((2, 4)), "shape"), (np.zeros(3), "shape"),
+                      ("left", "numeric")]:
+        with pytest.raises(ValueError, match=word):
+            env.step(bad)
+    assert np.array_equal(before[0], game.shuttle.pos)
+    assert np.array_equal(before[1], game.bodies.theta)
+    assert np.array_equal(before[2], env.task.elapsed)
+    single = SimpleReturnEnv()
+    single.reset(seed=0)
+    with pytest.raises(ValueError, match="NaN"):
+        single.step([np.nan, 0, 0])
+
+
+def test_out_of_range_actions_are_clipped():
+    a = SimpleReturnEnv()
+    b = SimpleReturnEnv()
+    a.reset(seed=3)
+    b.reset(seed=3)
+    oa = a.step([5.0, -7.0, 2.0])[0]
+    ob = b.step([1.0, -1.0, 1.0])[0]
+    assert np.array_equal(oa, ob)
+
+
+def test_unknown_options_and_models_list_the_valid_ones():
+    env = SimpleReturnEnv()
+    with pytest.raises(ValueError, match="target_depth"):
+        env.reset(options={"goal": 3.0})
+    with pytest.raises(ValueError, match=r"\[2, 6\]"):
+        env.reset(options={"target_depth": 9.0})
+    with pytest.raises(ValueError, match="'paper', 'paper-alg1', 'aero'"):
+        SimpleReturnEnv(shuttle="wind")
+    with pytest.raises(ValueError, match="same_step"):
+        SimpleReturnVectorEnv(2, autoreset_mode="sometimes")
+
+
+def test_goal_is_settable_and_observed():
+    env = SimpleReturnEnv()
+    obs, info = env.reset(seed=0, options={"target_depth": 5.0, "base_x": -2.0, "arm_angle": 0.0})
+    assert info["target_depth"] == 5.0
+    assert obs[16] == pytest.approx(0.5)  # (5 - 4) / 2
+    assert obs[0] == pytest.approx(-0.2)  # -2 m / 10
+    vec = SimpleReturnVectorEnv(3)
+    obs, _ = vec.reset(seed=0, options={"target_depth": [2.0, 4.0, 6.0]})
+    assert obs[:, 16] == pytest.approx([-1.0, 0.0, 1.0])
+
+
+def test_shaping_reward_values():
+    env = SimpleReturnEnv()
+    env.reset(seed=0, options={"base_x": -4.0, "arm_angle": 0.0})
+    # toward the shuttle (it starts at x > 0): 5 physics steps closing in -> +0.001 each
+    r = env.step([0.0, -1.0, 1.0])[1]
+    assert r == pytest.approx(5 * 0.001)
+    env.reset(seed=0, options={"base_x": -4.0, "arm_angle": 0.0})
+    r = env.step([0.0, -1.0, 0.0])[1]  # standing still: -0.005 each
+    assert r == pytest.approx(5 * -0.005)
+    env.reset(seed=0, options={"base_x": -6.5, "arm_angle": 0.0})
+    r = env.step([0.0, -1.0, -1.0])[1]  # pushing against the back of its range: not moving
+    assert r == pytest.approx(5 * -0.005)
+    # retreating slower than the serve approaches still closes the gap: +0.001 each
+    env.reset(seed=0, options={"base_x": -4.0, "arm_angle": 0.0})
+    r = env.step([0.0, -1.0, -1.0])[1]
+    assert r == pytest.approx(5 * 0.001)
+
+
+def landing_case(depth_goal, land_x, net=False, hit=True):
+    """Put a hit shuttle just above the floor so that it lands at ``land_x`` this decision."""
+    env = SimpleReturnEnv()
+    env.reset(seed=0, options={"target_depth": depth_goal, "base_x": -6.5, "arm_angle": 0.0})
+    g = env.task.game
+    g.armed[:] = False
+    g.has_hit[:] = hit
+    g.net_touched[:] = net
+    g.shuttle.pos[0] = [land_x, 0.0, 0.01]
+    g.shuttle.vel[0] = [0.0, 0.0, -5.0]
+    g._refresh()
+    return env.step([0.0, -1.0, 0.0])
+
+
+def test_landing_reward_values():
+    _, r, term, _, info = landing_case(4.0, 5.0)
+    assert term and info["landed_in"]
+    assert r == pytest.approx(np.exp(-0.5 * info["landing_error"]))
+    assert info["landing_error"] == pytest.approx(1.0, abs=1e-9)
+    assert landing_case(4.0, 5.0, net=True)[1] == 0.0  # touched the net after the hit
+    assert landing_case(4.0, 6.66)[1] == 0.0  # beyond the original trigger box
+    assert landing_case(4.0, -3.0)[1] == 0.0  # own side
+    # not hit: the shaping of the steps before a hit still counts
+    assert landing_case(4.0, 5.0, hit=False)[1] == pytest.approx(-0.005)
+
+
+def test_hit_reward_and_info():
+    env = SimpleReturnEnv()
+    env.reset(seed=0, options={"base_x": -3.0, "arm_angle": -1.0})
+    g = env.task.game
+    g.shuttle.pos[0] = [-3.0 + 1.06 * np.sin(-0.35), 0, 0.65 + 1.06 * np.cos(-0.35)]
+    g.shuttle.vel[0] = [0.0, 0.0, 0.0]
+    g._refresh()
+    _, r, _, _, info = env.step([1.0, 1.0, 0.0])
+    assert info["hit"] and info["racket_speed"] == pytest.approx(7.42)
+    assert 1.0 - 0.025 <= r <= 1.0  # +1 for the hit, shaping for the steps before it
+
+
+def test_truncation_at_max_decisions():
+    env = SimpleReturnEnv(max_decisions=3)
+    env.reset(seed=0)
+    out = [env.step([0, -1, 0]) for _ in range(3)]
+    assert [o[3] for o in out] == [False, False, True] and not any(o[2] for o in out)
+    with pytest.raises(RuntimeError, match="reset"):
+        env.step([0, 0, 0])
+
+
+def test_next_step_and_same_step_autoreset():
+    env = SimpleReturnVectorEnv(1, max_decisions=2)
+    env.reset(seed=0)
+    env.step(np.zeros((1, 3)))
+    _, _, _, trunc, _ = env.step(np.zeros((1, 3)))
+    assert trunc[0]
+    obs, r, term, trunc, _ = env.step(np.zeros((1, 3)))  # the reset step
+    assert r[0] == 0 and not term[0] and not trunc[0] and env.task.elapsed[0] == 0
+    same = SimpleReturnVectorEnv(1, max_decisions=2, autoreset_mode="same_step")
+    same.reset(seed=0)
+    same.step(np.zeros((1, 3)))
+    obs, _, _, trunc, info = same.step(np.zeros((1, 3)))
+    assert trunc[0] and info["_final_obs"][0] and same.task.elapsed[0] == 0
+    assert not np.array_equal(info["final_obs"][0], obs[0])
+
+
+def test_scripted_controller_returns_most_serves_near_target():
+    env = SimpleReturnVectorEnv(128, autoreset_mode="same_step")
+    obs, _ = env.reset(seed=0)
+    c = ScriptedController()
+    ep = np.zeros(128)
+    hit = np.zeros(128, bool)
+    rewards, hits, errors, ins = [], [], [], []
+    for _ in range(200):
+        obs, r, term, trunc, info = env.step(c.act_return(obs))
+        ep += r
+        hit |= info["hit"]
+        for e in np.flatnonzero(term | trunc):
+            fi = info["final_info"]
+            rewards.append(ep[e])
+            hits.append(hit[e])
+            ins.append(fi["landed_in"][e])
+            if hit[e]:
+                errors.append(fi["landing_error"][e])
+            ep[e], hit[e] = 0.0, False
+    assert len(rewards) > 600
+    assert np.mean(hits) > 0.95
+    assert np.mean(ins) > 0.9
+    assert np.median(errors) < 0.6
+    assert np.mean(rewards) > 1.5

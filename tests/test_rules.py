@@ -1,0 +1,56 @@
+"""Serve, court geometry and swept overlap tests (SPEC §3, §4.3)."""
+
+import numpy as np
+import pytest
+
+from rallysim.core import rules
+from rallysim.core.court import Court
+
+
+def test_court_dimensions_from_mjcf():
+    c = Court.from_mjcf()
+    assert (c.half_length, c.half_width) == pytest.approx((6.7, 3.05))
+    assert c.net_top == pytest.approx(1.51)
+    assert c.net_half_thickness == pytest.approx(0.025)
+    assert (c.paper_zone_near, c.paper_zone_far) == pytest.approx((0.386, 6.658))
+
+
+def test_serve_ranges_toward_each_receiver():
+    rng = np.random.default_rng(0)
+    for receiver in (0, 1):
+        u = rng.random((20000, rules.SERVE_DRAWS))
+        pos, vel = rules.sample_serve(u, np.full(20000, receiver))
+        f = rules.FORWARD[receiver]
+        x0 = f * pos[:, 0]  # in the receiver's own frame
+        assert x0.min() >= 1.0 and x0.max() <= 6.0
+        assert x0.min() < 1.01 and x0.max() > 5.99
+        assert pos[:, 2].min() >= 1.0 and pos[:, 2].max() <= 1.5
+        assert np.all(pos[:, 1] == 0) and np.all(vel[:, 1] == 0)
+        speed = np.linalg.norm(vel, axis=1)
+        assert speed.min() >= 10.0 - 1e-9 and speed.max() <= 27.5 + 1e-9
+        assert np.all(f * vel[:, 0] < 0)  # toward the receiver
+        phi = np.degrees(np.arctan2(vel[:, 2], np.abs(vel[:, 0])))
+        t = (x0 - 1) / 5
+        assert np.all(phi >= 45 + t * (15 - 45) - 1e-6) and np.all(phi <= 60 + 1e-6)
+        s = speed / 5
+        assert np.all(s >= 2 + 2 * t - 1e-9) and np.all(s <= 3 + 2.5 * t + 1e-9)
+    near = x0 < 1.1  # near serves are steep and slow
+    assert phi[near].min() > 42 and speed[near].max() < 15.5
+
+
+def test_segment_box_entry_fraction_and_misses():
+    lo, hi = -np.ones(3), np.ones(3)
+    q0 = np.array([[-3.0, 0, 0], [-3.0, 2.0, 0], [0.0, 0, 0], [-3.0, 0, 0]])
+    q1 = np.array([[1.0, 0, 0], [1.0, 2.0, 0], [0.5, 0, 0], [-2.0, 0, 0]])
+    hit, t = rules.segment_box_entry(q0, q1, lo, hi)
+    assert hit.tolist() == [True, False, True, False]
+    assert t[0] == pytest.approx(0.5) and t[2] == 0.0
+
+
+def test_landing_in_paper_box_and_full_court():
+    c = Court.from_mjcf()
+    depth = np.array([0.2, 0.4, 6.6, 6.68, 7.0])
+    y = np.zeros(5)
+    assert rules.landing_in(c, depth, y, False).tolist() == [False, True, True, False, False]
+    assert rules.landing_in(c, depth, y, True).tolist() == [True, True, True, True, False]
+    assert not rules.landing_in(c, np.array([3.0]), np.array([3.2]), True)[0]
