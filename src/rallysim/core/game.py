@@ -70,6 +70,7 @@ class Game:
         self.shaping, self.rearm_on_net = shaping, rearm_on_net
         n, p = n_envs, n_players
         self.in_play = np.zeros(n, bool)
+        self._active = np.ones(n, bool)
         self.armed = np.zeros((n, p), bool)
         self.has_hit = np.zeros((n, p), bool)
         self.last_hitter = np.full(n, -1)  # -1: the serve
@@ -120,13 +121,35 @@ class Game:
         self._refresh()
 
     # -- one decision ---------------------------------------------------------------------------
-    def step(self, actions: np.ndarray) -> Events:
-        """Hold ``actions`` (N, P, 3) in [-1, 1] for one decision; return its events."""
+    def step(self, actions: np.ndarray, active: np.ndarray | None = None) -> Events:
+        """Hold ``actions`` (N, P, 3) in [-1, 1] for one decision; return its events.
+
+        ``active`` (N,) bool, optional: games left out are held still (bodies and shuttle keep
+        their state and nothing happens to them), so a batch can wait on some of its games."""
         self.bodies.set_actions(actions)
         self.events.clear()
+        frozen = None if active is None or active.all() else np.flatnonzero(~active)
+        if frozen is not None:
+            self._active[:] = active
+            saved = self._snapshot(frozen)
         for _ in range(PHYSICS_STEPS_PER_DECISION):
             self._physics_step()
+        if frozen is not None:
+            self._restore(frozen, saved)
+            self._active[:] = True
         return self.events
+
+    def _snapshot(self, envs: np.ndarray) -> tuple:
+        b, sh = self.bodies, self.shuttle
+        return (b.theta[envs].copy(), b.omega[envs].copy(), b.base_x[envs].copy(),
+                sh.pos[envs].copy(), sh.vel[envs].copy(), sh.shot_time[envs].copy())
+
+    def _restore(self, envs: np.ndarray, saved: tuple) -> None:
+        b, sh = self.bodies, self.shuttle
+        (b.theta[envs], b.omega[envs], b.base_x[envs], sh.pos[envs], sh.vel[envs],
+         sh.shot_time[envs]) = saved
+        b.mocap[envs, :, 0] = b.forward[envs] * b.base_x[envs]
+        self._refresh()
 
     def _own_into(self, world: np.ndarray, out: np.ndarray) -> None:
         """(N, 3) world positions -> (N, P, 3) ``out`` in each player's own frame."""
@@ -154,16 +177,17 @@ class Game:
 
     def _physics_step(self) -> None:
         b, sh, ev, P = self.bodies, self.shuttle, self.events, self.n_players
-        live = self.in_play.copy()
+        live = self.in_play & self._active
         theta0 = b.theta.copy()
         p0 = sh.pos.copy()
+        v0 = sh.vel.copy()
         q0, self._q = self._q, self._q0
         self._q0 = q0
         b.physics_step()
         self.flight.advance(sh, PHYSICS_DT)
-        if not live.all():  # landed shuttles stay where they fell until their env is reset
+        if not live.all():  # landed (or held) shuttles stay put until their env is reset
             sh.pos[~live] = p0[~live]
-            sh.vel[~live] = 0.0
+            sh.vel[~live] = v0[~live]
         self._observe_shuttle()
 
         if self.shaping:
@@ -201,6 +225,7 @@ class Game:
                                                self.flight.full_court)
             self.in_play[idx] = False
             self.armed[idx] = False
+            sh.vel[idx] = 0.0
 
     def _apply_hits(self, hit: np.ndarray, t: np.ndarray, theta0: np.ndarray,
                     p0: np.ndarray) -> None:

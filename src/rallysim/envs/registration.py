@@ -5,9 +5,16 @@ from __future__ import annotations
 import gymnasium as gym
 
 SIMPLE_RETURN_ID = "RallySim/SimpleReturn-v0"
+SIMPLE_RALLY_TURN_ID = "RallySim/SimpleRallyTurn-v0"
 
 
 def register_envs() -> None:
+    if SIMPLE_RALLY_TURN_ID not in gym.registry:
+        gym.register(
+            id=SIMPLE_RALLY_TURN_ID,
+            entry_point="rallysim.envs.simple_rally_v0:SimpleRallyTurnEnv",
+            vector_entry_point="rallysim.envs.simple_rally_v0:SimpleRallyTurnVectorEnv",
+        )
     if SIMPLE_RETURN_ID in gym.registry:
         return
     gym.register(

@@ -63,7 +63,6 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
-from gymnasium.vector import VectorEnv
 
 from rallysim.core.game import Game
 from rallysim.envs.simple_obs import (
@@ -73,13 +72,7 @@ from rallysim.envs.simple_obs import (
     player_observations,
 )
 from rallysim.envs.validation import check_options, validate_actions
-
-try:  # Gymnasium >= 1.1
-    from gymnasium.vector import AutoresetMode
-
-    NEXT_STEP, SAME_STEP = AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP
-except ImportError:  # pragma: no cover - Gymnasium 1.0
-    NEXT_STEP, SAME_STEP = "NextStep", "SameStep"
+from rallysim.envs.vector_base import NEXT_STEP, NativeVectorEnv
 
 OBS_SIZE = PLAYER_OBS_SIZE + 1
 ACTION_SIZE = 3
@@ -221,30 +214,16 @@ class SimpleReturnEnv(gym.Env):
                 {k: _scalar(v[0]) for k, v in info.items() if k in keep})
 
 
-def _scrub(info: dict, envs: np.ndarray, goal: np.ndarray) -> None:
-    """Blank the events of ``envs`` (they were only being reset this step)."""
-    for key, value in info.items():
-        if (value.dtype == bool and not key.startswith("_")) or key.startswith("_"):
-            value[envs] = False
-        elif key.startswith("landing_") and key != "landing_point":
-            value[envs] = np.nan
-        else:
-            value[envs] = 0.0
-    info["target_depth"][envs] = goal[envs]
-
-
 def _scalar(v):
     return v.item() if np.ndim(v) == 0 else v
 
 
-class SimpleReturnVectorEnv(VectorEnv):
+class SimpleReturnVectorEnv(NativeVectorEnv):
     """N environments of the SIMPLE low-level task stepped together in one call.
 
     The fast path: one MuJoCo model holds all N players and the rules run as array code, so
     there are no per-environment Python objects. ``autoreset_mode`` is ``"next_step"`` (the
-    Gymnasium default: a finished environment is reset by the following ``step``, whose action
-    for it is ignored) or ``"same_step"`` (reset at once; the last observation and info are in
-    ``info["final_obs"]`` and ``info["final_info"]``, masked by ``info["_final_obs"]``).
+    Gymnasium default) or ``"same_step"``; see ``rallysim.envs.vector_base.NativeVectorEnv``.
     """
 
     metadata = {"render_modes": [], "render_fps": 10, "autoreset_mode": NEXT_STEP}
@@ -253,60 +232,32 @@ class SimpleReturnVectorEnv(VectorEnv):
                  target_depth_range: tuple[float, float] = TARGET_DEPTH_RANGE,
                  max_decisions: int = MAX_DECISIONS, autoreset_mode: str = "next_step",
                  render_mode: str | None = None, seed: int | None = None) -> None:
-        if not isinstance(num_envs, int | np.integer) or num_envs < 1:
-            raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
         if render_mode is not None:
             raise ValueError(f"render_mode {render_mode!r} is not supported; valid: None")
-        modes = {"next_step": NEXT_STEP, "same_step": SAME_STEP}
-        mode = getattr(autoreset_mode, "value", autoreset_mode)
-        key = {"NextStep": "next_step", "SameStep": "same_step"}.get(mode, mode)
-        if key not in modes:
-            raise ValueError(f"unknown autoreset_mode {autoreset_mode!r}; valid: "
-                             f"{', '.join(map(repr, modes))}")
-        self.metadata = {**self.metadata, "autoreset_mode": modes[key]}
-        self._same_step = key == "same_step"
-        self.num_envs = int(num_envs)
-        self.single_observation_space, self.single_action_space = _spaces()
+        self._setup(num_envs, autoreset_mode)
         n = self.num_envs
+        self.single_observation_space, self.single_action_space = _spaces()
         self.observation_space = spaces.Box(-1.0, 1.0, (n, OBS_SIZE), np.float32)
         self.action_space = spaces.Box(-1.0, 1.0, (n, ACTION_SIZE), np.float32)
         self.task = ReturnTask(n, shuttle, seed, target_depth_range, max_decisions)
-        self._needs_reset = np.ones(n, bool)
-        self._all = np.arange(n)
 
-    def reset(self, *, seed: int | list[int] | None = None,
-              options: dict[str, Any] | None = None):
-        if seed is not None:
-            seeds = [seed + i for i in range(self.num_envs)] if np.isscalar(seed) else list(seed)
-            if len(seeds) != self.num_envs:
-                raise ValueError(f"expected {self.num_envs} seeds, got {len(seeds)}")
-            for e, s in enumerate(seeds):
-                self.task.game.seed(np.array([e]), s)
-        self.task.reset(self._all, options)
-        self._needs_reset[:] = False
-        return self.task.observe(), {"target_depth": self.task.goal.copy()}
+    def _seed_units(self, seeds: list[int]) -> None:
+        for e, s in enumerate(seeds):
+            self.task.game.seed(np.array([e]), s)
 
-    def step(self, actions):
+    def _reset_units(self, units: np.ndarray, options: dict | None) -> None:
+        self.task.reset(units, options)
+
+    def _reset_info(self) -> dict:
+        return {"target_depth": self.task.goal.copy()}
+
+    def _step_units(self, actions):
         a = validate_actions(actions, (self.num_envs, ACTION_SIZE))
-        task = self.task
-        pending = np.flatnonzero(self._needs_reset)
-        reward, term, trunc, info = task.step(a)
-        if len(pending):  # next-step autoreset: these envs ignore their action and reset
-            task.reset(pending)
-            reward[pending] = 0.0
-            term[pending] = trunc[pending] = False
-            _scrub(info, pending, task.goal)
-        done = term | trunc
-        obs = task.observe()
-        if self._same_step and done.any():
-            info["final_obs"] = np.where(done[:, None], obs, np.nan).astype(np.float32)
-            info["_final_obs"] = done.copy()
-            info["final_info"] = {k: v.copy() for k, v in info.items() if not k.startswith(
-                ("final", "_final"))}
-            info["_final_info"] = done.copy()
-            task.reset(np.flatnonzero(done))
-            obs = task.observe()
-            self._needs_reset[:] = False
-        else:
-            self._needs_reset = done
-        return obs, reward, term, trunc, info
+        return self.task.step(a)
+
+    def _observe(self) -> np.ndarray:
+        return self.task.observe()
+
+    def _blank_info(self, info: dict, units: np.ndarray) -> None:
+        super()._blank_info(info, units)
+        info["target_depth"][units] = self.task.goal[units]

@@ -1,0 +1,163 @@
+"""The two-player rally over N batched games (SPEC §7): observations, turns, rewards, ends.
+
+Shared by every rally view (PettingZoo parallel, the slot vector env, the turn-based views).
+
+Cooperative mode (the paper): +0.2 to both players on every hit; one episode is one rally, ending
+when the shuttle lands (terminated) or at the 50-hit cap (truncated).
+
+Competitive mode: badminton scoring. A rally ends in a point for the player whose opponent failed
+to return the shuttle in: a shuttle landing in a player's half (in bounds) is that player's
+fault; one landing out is the last hitter's. The point's winner gets +1, the loser -1, and serves
+the next rally (the machine serve of SPEC §4.3, from the winner's side). A game goes to 21 points,
+won by 2, capped at 30; one episode is one game. A rally reaching the hit cap is replayed (a let).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from rallysim.core.game import Game
+from rallysim.envs.simple_obs import PLAYER_OBS_SIZE, normalise_position, player_observations
+
+RALLY_OBS_SIZE = PLAYER_OBS_SIZE + 4  # + opponent base position (3) + "my turn" flag (1)
+START_BASE_X = (-2.7, -2.44)  # own-frame base x of players 0 and 1 at a rally's start (SPEC §7)
+MODES = ("cooperative", "competitive")
+
+
+@dataclass(frozen=True)
+class RallyConfig:
+    """Rules of a rally game; defaults are the paper's (SPEC §7)."""
+
+    shuttle: str = "paper"
+    mode: str = "cooperative"
+    max_hits: int = 50
+    hit_reward: float = 0.2
+    max_decisions: int = 5000  # a stall guard per rally; rallies end long before
+    points_to_win: int = 21
+    win_by: int = 2
+    max_points: int = 30
+
+    def __post_init__(self) -> None:
+        if self.mode not in MODES:
+            valid = ", ".join(map(repr, MODES))
+            raise ValueError(f"unknown mode {self.mode!r}; valid modes: {valid}")
+        if self.max_hits < 1 or self.max_decisions < 1:
+            raise ValueError("max_hits and max_decisions must be >= 1")
+        if not 1 <= self.points_to_win <= self.max_points or self.win_by < 1:
+            raise ValueError("need 1 <= points_to_win <= max_points and win_by >= 1")
+
+
+class RallyTask:
+    """N rallies (or competitive games) of two SIMPLE players."""
+
+    def __init__(self, num_rallies: int, config: RallyConfig | None = None,
+                 seed: int | None = None) -> None:
+        self.config = config = config or RallyConfig()
+        self.n = num_rallies
+        # The original game re-armed both rackets on a net touch (the shuttle flies on through);
+        # the realistic shuttle is blocked by the net instead.
+        self.game = Game(num_rallies, 2, shuttle=config.shuttle, seed=seed,
+                         rearm_on_net=config.shuttle != "aero")
+        self.competitive = config.mode == "competitive"
+        n = num_rallies
+        self.elapsed = np.zeros(n, np.int64)  # decisions in the current rally
+        self.score = np.zeros((n, 2), np.int64)
+        self.server = np.ones(n, np.int64)  # the machine serve of SPEC §4.3 goes to player 0
+        self.turn_started = np.zeros((n, 2), bool)
+
+    # -- episodes -------------------------------------------------------------------------------
+    def reset(self, envs: np.ndarray) -> None:
+        """New episodes: a fresh rally (cooperative) or a fresh game at 0-0 (competitive)."""
+        envs = np.asarray(envs, np.int64)
+        self.score[envs] = 0
+        self.server[envs] = 1
+        self._start_rally(envs)
+
+    def _start_rally(self, envs: np.ndarray) -> None:
+        receiver = 1 - self.server[envs]
+        base = np.broadcast_to(np.array(START_BASE_X), (len(envs), 2))
+        self.game.reset(envs, receiver=receiver, base_x=base, theta=0.0)
+        self.elapsed[envs] = 0
+        self.turn_started[envs] = False
+        self.turn_started[envs, receiver] = True
+
+    # -- views ----------------------------------------------------------------------------------
+    def observe(self) -> np.ndarray:
+        """(N, 2, 20) float32 observations, each in its player's own frame, in [-1, 1]."""
+        g = self.game
+        obs = np.empty((self.n, 2, RALLY_OBS_SIZE))
+        obs[..., :PLAYER_OBS_SIZE] = player_observations(g)
+        # the opponent's base in my frame: its own-frame x, turned 180 degrees about z
+        opp = np.zeros((self.n, 2, 3))
+        opp[..., 0] = -g.bodies.base_x[:, ::-1]
+        opp[..., 2] = g.bodies.base_z
+        obs[..., PLAYER_OBS_SIZE:PLAYER_OBS_SIZE + 3] = normalise_position(opp)
+        obs[..., PLAYER_OBS_SIZE + 3] = g.armed
+        return np.clip(obs, -1.0, 1.0).astype(np.float32)
+
+    # -- one decision ---------------------------------------------------------------------------
+    def step(self, actions: np.ndarray, active: np.ndarray | None = None):
+        """Advance the rallies by one decision with clipped ``actions`` (N, 2, 3).
+
+        Returns ``(rewards (N, 2), terminated (N,), truncated (N,), info)``. In competitive mode a
+        finished point that does not end the game starts the next rally at once; ``info`` tells
+        what happened, ``self.turn_started`` whose turn began during this decision."""
+        g, cfg = self.game, self.config
+        live = np.ones(self.n, bool) if active is None else active
+        ev = g.step(actions, active)
+        self.elapsed += live
+        self.turn_started[:] = False
+        hit_any = ev.hit.any(axis=1)
+        # a player's turn begins when the opponent hits (net re-arming is no new turn)
+        self.turn_started[:, 0] = ev.hit[:, 1]
+        self.turn_started[:, 1] = ev.hit[:, 0]
+        landed = ev.landed.copy()
+        capped = live & ~landed & ((g.hits >= cfg.max_hits) | (self.elapsed >= cfg.max_decisions))
+        rally_length = g.hits.copy()
+        info = {
+            "hit": ev.hit.copy(),
+            "racket_speed": ev.hit_speed.copy(),
+            "hit_point": ev.hit_point.copy(),
+            "net_touch": ev.net_touch.copy(),
+            "landed": landed,
+            "landing_point": ev.land_point.copy(),
+            "landing_side": np.where(landed, ev.land_side, -1),
+            "landed_in": landed & ev.land_in,
+            "rally_length": rally_length,
+            "rally_over": landed | capped,
+            "point_winner": np.full(self.n, -1),
+            "score": self.score.copy(),
+        }
+        if not self.competitive:
+            rewards = np.repeat((cfg.hit_reward * hit_any)[:, None], 2, axis=1)
+            return rewards, landed, capped, info
+
+        rewards = np.zeros((self.n, 2))
+        game_over = np.zeros(self.n, bool)
+        if landed.any():
+            e = np.flatnonzero(landed)
+            side = ev.land_side[e]
+            last = g.last_hitter[e]
+            last = np.where(last < 0, self.server[e], last)  # the serve counts as the server's
+            loser = np.where(ev.land_in[e], side, last)
+            winner = 1 - loser
+            self.score[e, winner] += 1
+            rewards[e, winner] = 1.0
+            rewards[e, loser] = -1.0
+            info["point_winner"][e] = winner
+            info["score"] = self.score.copy()
+            game_over[e] = self._game_over(e)
+            self.server[e] = winner
+        # next rallies: after a point that did not end the game, and after a let (the cap)
+        again = np.flatnonzero((landed & ~game_over) | capped)
+        if len(again):
+            self._start_rally(again)
+        return rewards, game_over, np.zeros(self.n, bool), info
+
+    def _game_over(self, envs: np.ndarray) -> np.ndarray:
+        cfg = self.config
+        hi = self.score[envs].max(axis=1)
+        lo = self.score[envs].min(axis=1)
+        return ((hi >= cfg.points_to_win) & (hi - lo >= cfg.win_by)) | (hi >= cfg.max_points)

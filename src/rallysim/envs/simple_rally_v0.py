@@ -1,0 +1,358 @@
+"""``simple_rally_v0``: two SIMPLE players rally over the net (SPEC §7-8).
+
+Views of one batched rally core (``RallyTask``):
+
+| view | what | for |
+|---|---|---|
+| ``parallel_env(**kw)`` | PettingZoo ``ParallelEnv``; both players act every decision (0.1 s) | multi-agent learners |
+| ``SimpleRallyVectorEnv(num_rallies, **kw)`` | Gymnasium ``VectorEnv``, one slot per rally-player pair (2N slots) | one policy shared by both players |
+| ``turn_env(low_level=..., **kw)`` | PettingZoo ``AECEnv``; the acting agent is the player whose turn just began; its action is its goal | the paper's high level |
+| ``SimpleRallyTurnEnv`` / ``SimpleRallyTurnVectorEnv`` (``RallySim/SimpleRallyTurn-v0``, single / vector) | single-agent Gymnasium view of the turn game, cooperative, one shared policy | off-the-shelf trainers |
+
+## Players, actions, observations
+Agents ``"player_0"`` (stands at x < 0, receives the first serve) and ``"player_1"``. Each acts
+like the low-level task's player: ``Box(-1, 1, (3,))`` = (arm target orientation, force,
+movement); out-of-range values are clipped; NaN, inf or a wrong shape raise ``ValueError``.
+Each observes 20 values in its own frame (player 1's frame is player 0's turned 180 degrees
+about z), scaled to [-1, 1]:
+
+| index | value |
+|---|---|
+| 0-15 | the low-level observation without the goal (``rallysim.envs.simple_obs``) |
+| 16-18 | opponent's base position (own frame, scaled like positions) |
+| 19 | "my turn": 1 while this player's racket is armed |
+
+## Rules
+Bases start at x = -2.7 (player 0) and +2.44 (player 1), arms upright. The serve (SPEC §4.3)
+goes to player 0; player 1's racket is disarmed until player 0 hits. A hit disarms the hitter
+and arms the other. With the ``paper`` shuttles a net touch re-arms both rackets and the shuttle
+flies on (the original builds); with ``aero`` the net blocks it and it drops on the hitter's side.
+Rally length = number of hits by both players.
+
+| mode | reward | episode |
+|---|---|---|
+| ``"cooperative"`` (default, the paper) | +0.2 to both on every hit | one rally: terminated when the shuttle lands, truncated at ``max_hits`` (50) hits |
+| ``"competitive"`` | +1 to a point's winner, -1 to its loser | one game to ``points_to_win`` (21), won by ``win_by`` (2), capped at ``max_points`` (30); the point's winner serves next; a rally reaching the cap is replayed |
+
+A point goes against the player in whose half the shuttle lands in bounds, or against the last
+hitter if it lands out. Arguments: ``shuttle``, ``mode``, ``max_hits``, ``hit_reward``,
+``points_to_win``, ``win_by``, ``max_points``, ``max_decisions`` (a per-rally stall guard).
+
+## Turn-based view
+``turn_env(low_level, **kw)``: ``agent_selection`` is the player whose turn has just begun (the
+opponent hit, or the serve is coming to it). Its action, ``Box(2, 6, (1,))``, is its goal: the
+landing depth in metres it wants beyond the net (values outside are clipped; NaN raises). The
+step runs both players' low-level controllers, each on its own latest goal, until the next turn
+begins, then reports the summed rewards and ``infos[agent]["decisions"]``, the span's length
+in decisions, for gamma^k discounting. ``low_level`` is any batched callable
+``(observations (M, 20), goals (M,)) -> actions (M, 3)``, or ``"scripted"`` / ``"random"``.
+
+## ``info`` (per agent)
+``hit``, ``racket_speed``, ``hit_point`` (this player), ``net_touch``, ``landed``,
+``landing_point``, ``landing_side``, ``landed_in``, ``rally_length``, ``rally_over``,
+``point_winner`` (-1 if none), ``score`` (own score first).
+
+## Version history
+- v0: first release.
+"""
+
+from __future__ import annotations
+
+import warnings
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+from pettingzoo import AECEnv, ParallelEnv
+
+from rallysim.envs.rally_task import RALLY_OBS_SIZE, RallyConfig, RallyTask
+from rallysim.envs.simple_obs import TARGET_DEPTH_RANGE
+from rallysim.envs.turn_task import LowLevel, TurnTask
+from rallysim.envs.validation import validate_actions
+from rallysim.envs.vector_base import NEXT_STEP, NativeVectorEnv
+
+AGENTS = ("player_0", "player_1")
+ACTION_SIZE = 3
+PER_PLAYER_INFO = ("hit", "racket_speed", "hit_point")
+SCORE_INFO = ("score",)
+
+
+def _obs_space() -> spaces.Box:
+    return spaces.Box(-1.0, 1.0, (RALLY_OBS_SIZE,), np.float32)
+
+
+def _act_space() -> spaces.Box:
+    return spaces.Box(-1.0, 1.0, (ACTION_SIZE,), np.float32)
+
+
+def _goal_space() -> spaces.Box:
+    return spaces.Box(*TARGET_DEPTH_RANGE, (1,), np.float32)
+
+
+def _agent_info(info: dict, env: int, player: int) -> dict[str, Any]:
+    """One player's view of rally ``env``'s event arrays."""
+    out = {}
+    for key, value in info.items():
+        v = value[env]
+        if key in PER_PLAYER_INFO:
+            v = v[player]
+        elif key in SCORE_INFO:
+            v = v[[player, 1 - player]]
+        out[key] = v.item() if np.ndim(v) == 0 else v.copy()
+    return out
+
+
+def _ignore_options(options: dict | None) -> None:
+    """PettingZoo's API test requires envs to accept any reset options; ours take none, so
+    say so instead of failing."""
+    if options:
+        warnings.warn(f"simple_rally_v0 takes no reset options; ignoring {sorted(options)}",
+                      stacklevel=3)
+
+
+def _check_agent_actions(actions: Any, live: list[str]) -> None:
+    if not isinstance(actions, dict):
+        raise ValueError(f"actions must be a dict keyed by agent, got {type(actions).__name__}")
+    for agent in actions:
+        if agent not in AGENTS:
+            raise ValueError(f"unknown agent {agent!r}; agents are {list(AGENTS)}")
+        if agent not in live:
+            raise ValueError(f"agent {agent!r} is done; call reset() to start a new episode")
+    missing = [a for a in live if a not in actions]
+    if missing:
+        raise ValueError(f"missing actions for {missing}")
+
+
+class SimpleRallyParallelEnv(ParallelEnv):
+    """One rally, both players acting every decision. See the module docstring."""
+
+    metadata = {"name": "simple_rally_v0", "render_modes": [], "render_fps": 10}
+
+    def __init__(self, render_mode: str | None = None, **config: Any) -> None:
+        if render_mode is not None:
+            raise ValueError(f"render_mode {render_mode!r} is not supported; valid: None")
+        self.task = RallyTask(1, RallyConfig(**config))
+        self.possible_agents = list(AGENTS)
+        self.agents: list[str] = []
+        self.render_mode = render_mode
+        self.observation_spaces = {a: _obs_space() for a in AGENTS}
+        self.action_spaces = {a: _act_space() for a in AGENTS}
+
+    def observation_space(self, agent: str) -> spaces.Box:
+        return self.observation_spaces[agent]
+
+    def action_space(self, agent: str) -> spaces.Box:
+        return self.action_spaces[agent]
+
+    def reset(self, seed: int | None = None, options: dict | None = None):
+        _ignore_options(options)
+        if seed is not None:
+            self.task.game.seed(np.array([0]), seed)
+        self.task.reset(np.array([0]))
+        self.agents = list(AGENTS)
+        obs = self.task.observe()[0]
+        return {a: obs[i] for i, a in enumerate(AGENTS)}, {a: {} for a in AGENTS}
+
+    def step(self, actions: dict[str, Any]):
+        _check_agent_actions(actions, self.agents)
+        a = np.stack([validate_actions(actions[agent], (ACTION_SIZE,)) for agent in AGENTS])
+        rewards, term, trunc, info = self.task.step(a[None])
+        obs = self.task.observe()[0]
+        agents = list(self.agents)
+        out = (
+            {a: obs[i] for i, a in enumerate(agents)},
+            {a: float(rewards[0, i]) for i, a in enumerate(agents)},
+            {a: bool(term[0]) for a in agents},
+            {a: bool(trunc[0]) for a in agents},
+            {a: _agent_info(info, 0, i) for i, a in enumerate(agents)},
+        )
+        if term[0] or trunc[0]:
+            self.agents = []
+        return out
+
+    def state(self) -> np.ndarray:
+        """Player 0's full observation: the whole (planar) state from one side."""
+        return self.task.observe()[0, 0]
+
+
+def parallel_env(**kwargs: Any) -> SimpleRallyParallelEnv:
+    """The rally as a PettingZoo ``ParallelEnv`` (see the module docstring for arguments)."""
+    return SimpleRallyParallelEnv(**kwargs)
+
+
+class SimpleRallyVectorEnv(NativeVectorEnv):
+    """N rallies as 2N Gymnasium slots, slot 2e + p being player p of rally e, for trainers
+    that share one policy across players. Rewards, ends and autoreset as the parallel env."""
+
+    metadata = {"render_modes": [], "render_fps": 10, "autoreset_mode": NEXT_STEP}
+    slots_per_unit = 2
+
+    def __init__(self, num_rallies: int = 1, autoreset_mode: str = "next_step",
+                 seed: int | None = None, **config: Any) -> None:
+        self._setup(num_rallies, autoreset_mode)
+        self.task = RallyTask(self.num_units, RallyConfig(**config), seed)
+        self.single_observation_space, self.single_action_space = _obs_space(), _act_space()
+        self.observation_space = spaces.Box(-1.0, 1.0, (self.num_envs, RALLY_OBS_SIZE),
+                                            np.float32)
+        self.action_space = spaces.Box(-1.0, 1.0, (self.num_envs, ACTION_SIZE), np.float32)
+
+    def _seed_units(self, seeds: list[int]) -> None:
+        for e, s in enumerate(seeds):
+            self.task.game.seed(np.array([e]), s)
+
+    def _reset_units(self, units: np.ndarray, options: dict | None) -> None:
+        if options:
+            raise ValueError(f"unknown reset option(s) {sorted(options)}; valid options: []")
+        self.task.reset(units)
+
+    def _step_units(self, actions):
+        a = validate_actions(actions, (self.num_envs, ACTION_SIZE))
+        rewards, term, trunc, info = self.task.step(a.reshape(self.num_units, 2, ACTION_SIZE))
+        return rewards.reshape(-1), term, trunc, info
+
+    def _observe(self) -> np.ndarray:
+        return self.task.observe().reshape(self.num_envs, RALLY_OBS_SIZE)
+
+
+class SimpleRallyTurnAECEnv(AECEnv):
+    """The turn-based rally as a PettingZoo ``AECEnv``. See the module docstring."""
+
+    metadata = {"name": "simple_rally_turn_v0", "render_modes": [], "is_parallelizable": False}
+
+    def __init__(self, low_level: LowLevel | str = "scripted", render_mode: str | None = None,
+                 **config: Any) -> None:
+        super().__init__()
+        if render_mode is not None:
+            raise ValueError(f"render_mode {render_mode!r} is not supported; valid: None")
+        self.turns = TurnTask(1, low_level, RallyConfig(**config))
+        self.possible_agents = list(AGENTS)
+        self.agents = []
+        self.render_mode = render_mode
+        self.observation_spaces = {a: _obs_space() for a in AGENTS}
+        self.action_spaces = {a: _goal_space() for a in AGENTS}
+
+    def observation_space(self, agent: str) -> spaces.Box:
+        return self.observation_spaces[agent]
+
+    def action_space(self, agent: str) -> spaces.Box:
+        return self.action_spaces[agent]
+
+    def observe(self, agent: str) -> np.ndarray:
+        return self.turns.rally.observe()[0, AGENTS.index(agent)]
+
+    def reset(self, seed: int | None = None, options: dict | None = None) -> None:
+        _ignore_options(options)
+        if seed is not None:
+            self.turns.rally.game.seed(np.array([0]), seed)
+        self.turns.reset(np.array([0]))
+        self.agents = list(AGENTS)
+        self.rewards = {a: 0.0 for a in AGENTS}
+        self._cumulative_rewards = {a: 0.0 for a in AGENTS}
+        self.terminations = {a: False for a in AGENTS}
+        self.truncations = {a: False for a in AGENTS}
+        self.infos = {a: {} for a in AGENTS}
+        self.agent_selection = AGENTS[self.turns.turn_player[0]]
+
+    def step(self, action: Any) -> None:
+        agent = self.agent_selection
+        if self.terminations[agent] or self.truncations[agent]:
+            self._was_dead_step(action)
+            return
+        goal = np.asarray(action, dtype=np.float64).reshape(-1)
+        if goal.shape != (1,):
+            raise ValueError(f"the action is one goal depth, shape (1,), got {np.shape(action)}")
+        self._cumulative_rewards[agent] = 0.0
+        out = self.turns.step(goal)
+        for i, a in enumerate(AGENTS):
+            self.rewards[a] = float(out["reward"][0, i])
+            self.infos[a] = {"decisions": int(out["decisions"][0]),
+                             "rally_length": int(out["rally_length"][0]),
+                             "hits": int(out["hits"][0, i]),
+                             "score": out["score"][0, [i, 1 - i]].copy()}
+        if out["terminated"][0] or out["truncated"][0]:
+            for a in AGENTS:
+                self.terminations[a] = bool(out["terminated"][0])
+                self.truncations[a] = bool(out["truncated"][0])
+        else:
+            self.agent_selection = AGENTS[self.turns.turn_player[0]]
+        self._accumulate_rewards()
+
+
+def turn_env(low_level: LowLevel | str = "scripted", **kwargs: Any) -> SimpleRallyTurnAECEnv:
+    """The turn-based rally (PettingZoo AEC) driven by ``low_level``; see the module docstring."""
+    return SimpleRallyTurnAECEnv(low_level=low_level, **kwargs)
+
+
+class SimpleRallyTurnVectorEnv(NativeVectorEnv):
+    """N cooperative turn-based rallies as a single-agent Gymnasium vector env: each slot is a
+    rally, observed by whoever's turn it is; its action is that player's goal; its reward is the
+    span's cooperative reward; ``info["decisions"]`` is the span's length."""
+
+    metadata = {"render_modes": [], "autoreset_mode": NEXT_STEP}
+
+    def __init__(self, num_envs: int = 1, low_level: LowLevel | str = "scripted",
+                 autoreset_mode: str = "next_step", seed: int | None = None,
+                 **config: Any) -> None:
+        cfg = RallyConfig(**config)
+        if cfg.mode != "cooperative":
+            raise ValueError("the single-agent turn view is cooperative; use turn_env() for "
+                             "the competitive game")
+        self._setup(num_envs, autoreset_mode)
+        self.turns = TurnTask(self.num_units, low_level, cfg, seed)
+        self.single_observation_space, self.single_action_space = _obs_space(), _goal_space()
+        self.observation_space = spaces.Box(-1.0, 1.0, (self.num_envs, RALLY_OBS_SIZE),
+                                            np.float32)
+        self.action_space = spaces.Box(*TARGET_DEPTH_RANGE, (self.num_envs, 1), np.float32)
+
+    def _seed_units(self, seeds: list[int]) -> None:
+        for e, s in enumerate(seeds):
+            self.turns.rally.game.seed(np.array([e]), s)
+
+    def _reset_units(self, units: np.ndarray, options: dict | None) -> None:
+        if options:
+            raise ValueError(f"unknown reset option(s) {sorted(options)}; valid options: []")
+        self.turns.reset(units)
+
+    def _step_units(self, actions):
+        goals = np.asarray(actions, dtype=np.float64).reshape(-1)
+        if goals.shape != (self.num_envs,):
+            raise ValueError(f"actions must hold one goal per rally, shape ({self.num_envs}, 1), "
+                             f"got {np.shape(actions)}")
+        # rallies waiting for their next-step reset do not play
+        playing = np.setdiff1d(np.arange(self.num_units), self._pending)
+        out = self.turns.step(np.nan_to_num(goals, nan=4.0) if len(self._pending) else goals,
+                              playing)
+        acted = out["acted"]
+        reward = out["reward"][np.arange(self.num_envs), acted]
+        info = {"decisions": out["decisions"], "rally_length": out["rally_length"],
+                "player": acted}
+        return reward, out["terminated"], out["truncated"], info
+
+    def _observe(self) -> np.ndarray:
+        return self.turns.observe()
+
+
+class SimpleRallyTurnEnv(gym.Env):
+    """One cooperative turn-based rally as a single-agent Gymnasium env (one shared policy)."""
+
+    metadata = {"render_modes": []}
+
+    def __init__(self, low_level: LowLevel | str = "scripted", **config: Any) -> None:
+        self.vec = SimpleRallyTurnVectorEnv(1, low_level=low_level, **config)
+        self.observation_space, self.action_space = _obs_space(), _goal_space()
+        self._done = True
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        super().reset(seed=seed)
+        obs, _ = self.vec.reset(seed=seed, options=options)
+        self._done = False
+        return obs[0], {}
+
+    def step(self, action):
+        if self._done:
+            raise RuntimeError("the rally has ended (or never began): call reset() first")
+        obs, r, term, trunc, info = self.vec.step(np.asarray(action, np.float64).reshape(1, -1))
+        self._done = bool(term[0] or trunc[0])
+        return (obs[0], float(r[0]), bool(term[0]), bool(trunc[0]),
+                {k: v[0].item() for k, v in info.items()})

@@ -1,0 +1,106 @@
+"""Turn-based rallies over N batched games (SPEC §8): the high level's semi-Markov steps.
+
+A turn begins for a player when the opponent hits (or when a rally starts with the serve coming
+to it). The player then picks a goal, a landing depth in [2, 6] m, held until its next turn; the
+low-level controllers of both players act on their goals every decision until the next turn
+begins. One ``step`` covers that whole span and reports its summed reward and its length in
+decisions (for gamma^k discounting). Rallies of a batch that reach their next turn early wait
+(held still) while the others finish their span.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from rallysim.envs.rally_task import RALLY_OBS_SIZE, RallyConfig, RallyTask
+from rallysim.envs.simple_obs import TARGET_DEPTH_RANGE
+
+LowLevel = Callable[[np.ndarray, np.ndarray], np.ndarray]
+DEFAULT_GOAL = 4.0
+
+
+def resolve_low_level(low_level: LowLevel | str, seed: int | None = None) -> LowLevel:
+    """A batched ``(observations (M, 20), goals (M,)) -> actions (M, 3)`` callable.
+
+    Strings name the shipped ones: ``"scripted"`` (``ScriptedController``) and ``"random"``."""
+    if callable(low_level):
+        return low_level
+    if low_level == "scripted":
+        from rallysim.policies import ScriptedController
+
+        return ScriptedController()
+    if low_level == "random":
+        rng = np.random.default_rng(seed)
+        return lambda obs, goals: rng.uniform(-1.0, 1.0, (len(obs), 3))
+    raise ValueError(f"unknown low_level {low_level!r}; pass a callable "
+                     "(observations, goals) -> actions, or 'scripted' or 'random'")
+
+
+def clip_goals(goals: np.ndarray) -> np.ndarray:
+    """Goals as finite depths clipped to [2, 6] m; NaN or inf raise ``ValueError``."""
+    g = np.asarray(goals, dtype=np.float64)
+    if not np.all(np.isfinite(g)):
+        raise ValueError(f"goals must be finite landing depths in metres, got {goals!r}")
+    return np.clip(g, *TARGET_DEPTH_RANGE)
+
+
+class TurnTask:
+    """N rallies advanced turn by turn."""
+
+    def __init__(self, num_rallies: int, low_level: LowLevel | str = "scripted",
+                 config: RallyConfig | None = None, seed: int | None = None) -> None:
+        self.rally = RallyTask(num_rallies, config, seed)
+        self.low_level = resolve_low_level(low_level, seed)
+        self.n = num_rallies
+        self.goals = np.full((num_rallies, 2), DEFAULT_GOAL)
+        self.turn_player = np.zeros(num_rallies, np.int64)
+
+    def reset(self, envs: np.ndarray) -> None:
+        envs = np.asarray(envs, np.int64)
+        self.rally.reset(envs)
+        self.goals[envs] = DEFAULT_GOAL
+        self.turn_player[envs] = self.rally.turn_started[envs].argmax(axis=1)
+
+    def observe(self) -> np.ndarray:
+        """(N, 20) observation of each rally's turn player, in its own frame."""
+        return self.rally.observe()[np.arange(self.n), self.turn_player]
+
+    def step(self, goals: np.ndarray, envs: np.ndarray | None = None) -> dict[str, np.ndarray]:
+        """Give each turn player of ``envs`` (default: all) its goal and run to the next turn.
+
+        Returns per rally: ``reward`` (N, 2) summed over the span, ``decisions`` (N,),
+        ``terminated``, ``truncated``, ``rally_length``, ``score`` (N, 2), ``hits`` (N, 2) in the
+        span, and ``acted`` (N,), the player whose goal was set."""
+        n, rally = self.n, self.rally
+        running = np.zeros(n, bool)
+        running[np.arange(n) if envs is None else np.asarray(envs)] = True
+        rows = np.flatnonzero(running)
+        acted = self.turn_player.copy()
+        goals = clip_goals(np.broadcast_to(np.asarray(goals, np.float64), (n,)))
+        self.goals[rows, acted[rows]] = goals[rows]
+        out = {
+            "reward": np.zeros((n, 2)), "decisions": np.zeros(n, np.int64),
+            "terminated": np.zeros(n, bool), "truncated": np.zeros(n, bool),
+            "rally_length": rally.game.hits.copy(), "score": rally.score.copy(),
+            "hits": np.zeros((n, 2), np.int64), "acted": acted,
+        }
+        while running.any():
+            obs = rally.observe().reshape(2 * n, RALLY_OBS_SIZE)
+            actions = np.clip(self.low_level(obs, self.goals.reshape(2 * n)), -1.0, 1.0)
+            reward, term, trunc, info = rally.step(actions.reshape(n, 2, 3), active=running)
+            out["reward"] += reward * running[:, None]
+            out["decisions"] += running
+            out["hits"] += info["hit"] & running[:, None]
+            new_turn = rally.turn_started.any(axis=1)
+            stop = running & (term | trunc | new_turn)
+            if stop.any():
+                s = np.flatnonzero(stop)
+                out["terminated"][s], out["truncated"][s] = term[s], trunc[s]
+                out["rally_length"][s] = info["rally_length"][s]
+                out["score"][s] = info["score"][s]
+                turn = s[new_turn[s]]
+                self.turn_player[turn] = rally.turn_started[turn].argmax(axis=1)
+                running[s] = False
+        return out

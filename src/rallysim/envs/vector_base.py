@@ -1,0 +1,131 @@
+"""Autoreset and seeding for RallySim's native vector envs, written once.
+
+A native vector env steps *units* (games) in one call; each unit fills ``slots_per_unit``
+consecutive slots of the batch (1 for the low-level task, 2 for a rally seen player by player).
+Subclasses implement ``_seed_units``, ``_reset_units``, ``_step_units`` and ``_observe``.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from gymnasium.vector import VectorEnv
+
+try:  # Gymnasium >= 1.1
+    from gymnasium.vector import AutoresetMode
+
+    NEXT_STEP, SAME_STEP = AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP
+except ImportError:  # pragma: no cover - Gymnasium 1.0
+    NEXT_STEP, SAME_STEP = "NextStep", "SameStep"
+
+AUTORESET_MODES = {"next_step": NEXT_STEP, "same_step": SAME_STEP}
+
+
+def parse_autoreset_mode(mode: Any) -> str:
+    """``"next_step"`` or ``"same_step"`` from a string or Gymnasium's ``AutoresetMode``."""
+    value = getattr(mode, "value", mode)
+    key = {"NextStep": "next_step", "SameStep": "same_step"}.get(value, value)
+    if key not in AUTORESET_MODES:
+        raise ValueError(f"unknown autoreset_mode {mode!r}; valid: "
+                         f"{', '.join(map(repr, AUTORESET_MODES))}")
+    return key
+
+
+class NativeVectorEnv(VectorEnv):
+    """Base of the batched envs: next-step or same-step autoreset over units of slots.
+
+    With ``"next_step"`` (Gymnasium's default) a finished unit is reset by the following
+    ``step``, which ignores its actions and returns its first observation with zero reward.
+    With ``"same_step"`` it is reset at once; its last observation and info are in
+    ``info["final_obs"]`` and ``info["final_info"]``, masked by ``info["_final_obs"]``.
+    """
+
+    slots_per_unit = 1
+
+    def _setup(self, num_units: int, autoreset_mode: Any) -> None:
+        if not isinstance(num_units, int | np.integer) or num_units < 1:
+            raise ValueError(f"the number of environments must be a positive integer, "
+                             f"got {num_units!r}")
+        key = parse_autoreset_mode(autoreset_mode)
+        self.metadata = {**self.metadata, "autoreset_mode": AUTORESET_MODES[key]}
+        self._same_step = key == "same_step"
+        self.num_units = int(num_units)
+        self.num_envs = self.num_units * self.slots_per_unit
+        self._needs_reset = np.ones(self.num_units, bool)
+        self._pending = np.zeros(0, np.int64)
+
+    # -- for subclasses -------------------------------------------------------------------------
+    def _seed_units(self, seeds: list[int]) -> None:
+        raise NotImplementedError
+
+    def _reset_units(self, units: np.ndarray, options: dict | None) -> None:
+        raise NotImplementedError
+
+    def _step_units(self, actions: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
+        """One decision for every unit: slot rewards, unit terminated, unit truncated, info."""
+        raise NotImplementedError
+
+    def _observe(self) -> np.ndarray:
+        raise NotImplementedError
+
+    def _reset_info(self) -> dict:
+        return {}
+
+    def _blank_info(self, info: dict, units: np.ndarray) -> None:
+        """Clear the events of ``units`` that were only being reset this step."""
+        slots = self._slots(units)
+        for key, value in info.items():
+            if not isinstance(value, np.ndarray) or len(value) not in (self.num_units,
+                                                                      self.num_envs):
+                continue
+            rows = units if len(value) == self.num_units else slots
+            if value.dtype == bool:
+                value[rows] = False
+            elif np.issubdtype(value.dtype, np.floating):
+                value[rows] = np.nan if key.startswith("landing_") else 0.0
+            else:
+                value[rows] = 0
+
+    # -- the Gymnasium API ----------------------------------------------------------------------
+    def _slots(self, units: np.ndarray) -> np.ndarray:
+        k = self.slots_per_unit
+        return (np.asarray(units)[:, None] * k + np.arange(k)).reshape(-1)
+
+    def reset(self, *, seed: int | list[int] | None = None,
+              options: dict[str, Any] | None = None):
+        if seed is not None:
+            seeds = ([seed + i for i in range(self.num_units)] if np.isscalar(seed)
+                     else list(seed))
+            if len(seeds) != self.num_units:
+                raise ValueError(f"expected {self.num_units} seeds, got {len(seeds)}")
+            self._seed_units(seeds)
+        self._reset_units(np.arange(self.num_units), options)
+        self._needs_reset[:] = False
+        return self._observe(), self._reset_info()
+
+    def step(self, actions):
+        pending = np.flatnonzero(self._needs_reset)
+        self._pending = pending  # units whose actions are ignored this step
+        reward, term, trunc, info = self._step_units(actions)
+        if len(pending):  # next-step autoreset: these units ignore their actions and reset
+            self._reset_units(pending, None)
+            reward[self._slots(pending)] = 0.0
+            term[pending] = trunc[pending] = False
+            self._blank_info(info, pending)
+        done = term | trunc
+        obs = self._observe()
+        k = self.slots_per_unit
+        if self._same_step and done.any():
+            slot_done = np.repeat(done, k)
+            info["final_obs"] = np.where(slot_done[:, None], obs, np.nan).astype(np.float32)
+            info["_final_obs"] = slot_done
+            info["final_info"] = {key: v.copy() if isinstance(v, np.ndarray) else v
+                                  for key, v in info.items() if not key.startswith(
+                                      ("final", "_final"))}
+            info["_final_info"] = slot_done.copy()
+            self._reset_units(np.flatnonzero(done), None)
+            obs = self._observe()
+        else:
+            self._needs_reset = done
+        return obs, reward, np.repeat(term, k), np.repeat(trunc, k), info
