@@ -41,10 +41,10 @@ def timed(step: Callable[[], int], seconds: float) -> float:
     return done / (time.perf_counter() - start)
 
 
-def low_level(seconds: float) -> float:
-    env = SimpleReturnVectorEnv(N, seed=0, autoreset_mode="same_step")
+def random_rate(env, slots: int, seconds: float) -> float:
+    """Best decisions/s of ``env`` (N units, ``slots`` action rows) under random actions."""
     env.reset(seed=0)
-    actions = np.random.default_rng(0).uniform(-1, 1, (64, N, 3))
+    actions = np.random.default_rng(0).uniform(-1, 1, (64, slots, 3))
     it = iter(range(10**12))
 
     def step() -> int:
@@ -53,20 +53,15 @@ def low_level(seconds: float) -> float:
 
     step()
     return best_rate(lambda: timed(step, seconds))
+
+
+def low_level(seconds: float) -> float:
+    return random_rate(SimpleReturnVectorEnv(N, seed=0, autoreset_mode="same_step"), N, seconds)
 
 
 def rally_random(seconds: float) -> float:
     env = SimpleRallyVectorEnv(N, seed=0, autoreset_mode="same_step")
-    env.reset(seed=0)
-    actions = np.random.default_rng(0).uniform(-1, 1, (64, 2 * N, 3))
-    it = iter(range(10**12))
-
-    def step() -> int:
-        env.step(actions[next(it) % 64])
-        return N
-
-    step()
-    return best_rate(lambda: timed(step, seconds))
+    return random_rate(env, 2 * N, seconds)
 
 
 def rally_scripted(seconds: float) -> float:
