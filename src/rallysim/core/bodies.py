@@ -7,6 +7,8 @@ are attached rotated 180 degrees about z, so the same joint angle means the same
 
 from __future__ import annotations
 
+from typing import Any, Protocol
+
 import mujoco
 import numpy as np
 
@@ -14,6 +16,33 @@ from rallysim.assets import asset_path
 from rallysim.core.rules import FORWARD
 
 SIMPLE_ACTIONS = ("target_orientation", "force", "movement")
+
+
+class PlayerBodies(Protocol):
+    """What the rulebook (``Game``) needs of a batch of N x P players, in their own frames.
+
+    Arrays are (N, P, ...); "own frame" is the player's (SPEC §1). Implemented by
+    ``SimpleBodies`` here; other player models implement the same to share every rule."""
+
+    n_envs: int
+    n_players: int
+    forward: np.ndarray  # (N, P): +1 for player 0, -1 for player 1 (own x = forward * world x)
+    base_x: np.ndarray  # (N, P) own-frame x of the base (for the approach shaping)
+    base_moved: np.ndarray  # (N, P) bool: the base moved in the last physics step
+    face_half: np.ndarray  # (3,) half sizes of the racket face box in its own frame
+
+    def reset(self, envs: np.ndarray, base_x: np.ndarray, pose: Any = 0.0) -> None: ...
+    def set_actions(self, actions: np.ndarray) -> None: ...
+    def physics_step(self) -> None: ...
+    def to_face_frame(self, own: np.ndarray, out: np.ndarray) -> None:
+        """Own-frame points (N, P, 3) -> each face's frame, written to ``out``."""
+    def racket_velocity(self, env: np.ndarray, player: np.ndarray, t: np.ndarray) -> np.ndarray:
+        """Own-frame face-centre velocity of (env, player) pairs at fraction ``t`` of the
+        last physics step, (k, 3)."""
+    def shot_velocity(self, racket: np.ndarray) -> np.ndarray:
+        """The shuttle's own-frame velocity after a hit by a face moving at ``racket``."""
+    def snapshot(self, envs: np.ndarray) -> Any: ...
+    def restore(self, envs: np.ndarray, saved: Any) -> None: ...
 
 
 class SimpleBodies:
@@ -61,6 +90,7 @@ class SimpleBodies:
         self._base_step = np.zeros(shape)  # metres per physics step
         self._buf_x = np.zeros(shape)
         self._buf_w = np.zeros(shape)
+        self._theta0 = np.zeros(shape)  # arm angles at the start of the last physics step
         self._sync_mocap()
         mujoco.mj_forward(self.model, self.data)
 
@@ -92,6 +122,7 @@ class SimpleBodies:
         Written with preallocated buffers and no ``np.clip``: at N = 256 NumPy's per-call
         overhead, not arithmetic, is the cost."""
         dt, x, w = self.dt, self._buf_x, self._buf_w
+        self._theta0[:] = self.theta
         np.add(self.base_x, self._base_step, out=x)
         np.maximum(x, self.base_range[0], out=x)
         np.minimum(x, self.base_range[1], out=x)
@@ -117,6 +148,39 @@ class SimpleBodies:
 
     def _sync_mocap(self) -> None:
         self.mocap[..., 0] = self.forward * self.base_x
+
+    def snapshot(self, envs: np.ndarray) -> tuple:
+        return self.theta[envs].copy(), self.omega[envs].copy(), self.base_x[envs].copy()
+
+    def restore(self, envs: np.ndarray, saved: tuple) -> None:
+        self.theta[envs], self.omega[envs], self.base_x[envs] = saved
+        self._sync_mocap()
+
+    # -- the rulebook's view -------------------------------------------------------------------
+    def to_face_frame(self, own: np.ndarray, out: np.ndarray) -> None:
+        """Own-frame points (N, P, 3) -> (normal, across, along the arm) about each face centre.
+
+        The arm turns about y only, so this is a planar rotation (cheaper than 3x3 matrices)."""
+        s, c = np.sin(self.theta), np.cos(self.theta)
+        dx = own[..., 0] - self.base_x - self.face_offset * s
+        dz = own[..., 2] - self.pivot_z - self.face_offset * c
+        out[..., 0] = dx * c - dz * s
+        out[..., 1] = own[..., 1]
+        out[..., 2] = dx * s + dz * c
+
+    def racket_velocity(self, env: np.ndarray, player: np.ndarray, t: np.ndarray) -> np.ndarray:
+        """Face-centre velocity at fraction ``t`` of the last step: the arm turned at a constant
+        rate through it (Euler), so only the direction depends on ``t``."""
+        th0 = self._theta0[env, player]
+        th = th0 + t * (self.theta[env, player] - th0)
+        w = self.omega[env, player]
+        return np.stack([self.face_offset * w * np.cos(th), np.zeros(len(env)),
+                         -self.face_offset * w * np.sin(th)], axis=1)
+
+    @staticmethod
+    def shot_velocity(racket: np.ndarray) -> np.ndarray:
+        """SPEC §5: the shuttle leaves at twice the face centre's velocity."""
+        return 2.0 * racket
 
     # -- kinematics (own frame) ----------------------------------------------------------------
     def face_centre(self) -> np.ndarray:

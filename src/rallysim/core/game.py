@@ -11,7 +11,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from rallysim.core import rules
-from rallysim.core.bodies import SimpleBodies
+from rallysim.core.bodies import PlayerBodies, SimpleBodies
 from rallysim.core.court import Court
 from rallysim.core.shuttle import RADIUS, ShuttleState, make_shuttle_model
 
@@ -49,7 +49,10 @@ class Events:
 
 
 class Game:
-    """N batched SIMPLE games with P in {1, 2} players each, on one shuttle model.
+    """N batched games with P in {1, 2} players each, on one shuttle model.
+
+    The players are ``bodies`` (default: SIMPLE players); every rule here works through the
+    ``PlayerBodies`` protocol, so another player model shares the whole rulebook.
 
     ``rearm_on_net`` reproduces the original rally's net rule (a net touch re-arms both players);
     ``shaping`` counts the low-level task's approach steps before each player's first hit.
@@ -57,11 +60,13 @@ class Game:
 
     def __init__(self, n_envs: int, n_players: int = 1, shuttle: str = "paper",
                  seed: int | None = None, shaping: bool = False,
-                 rearm_on_net: bool = False) -> None:
+                 rearm_on_net: bool = False, bodies: PlayerBodies | None = None) -> None:
         self.n_envs, self.n_players = n_envs, n_players
         self.court = Court.from_mjcf()
         self.flight = make_shuttle_model(shuttle, PHYSICS_DT)
-        self.bodies = SimpleBodies(n_envs, n_players, PHYSICS_DT)
+        self.bodies: PlayerBodies = bodies or SimpleBodies(n_envs, n_players, PHYSICS_DT)
+        if (self.bodies.n_envs, self.bodies.n_players) != (n_envs, n_players):
+            raise ValueError("bodies must hold n_envs x n_players players")
         self.shuttle = ShuttleState.zeros(n_envs)
         # One stream per environment, so that environment i of a batch seeded s replays a
         # single environment seeded s + i (Gymnasium's convention for vector seeds).
@@ -85,6 +90,7 @@ class Game:
         self._hi = np.stack([half] * p + [net_hi, floor_hi])
         self._fwd = self.bodies.forward  # (N, P)
         self._own_buf = np.zeros((n, p, 3))
+        self._face_buf = np.zeros((n, p, 3))
         self._q = np.zeros((n, p + 2, 3))  # tested points at the end of the step
         self._q0 = np.zeros((n, p + 2, 3))  # ... and at its start
         self._gap = np.zeros((n, p))  # |base x - shuttle x| for shaping
@@ -140,15 +146,14 @@ class Game:
         return self.events
 
     def _snapshot(self, envs: np.ndarray) -> tuple:
-        b, sh = self.bodies, self.shuttle
-        return (b.theta[envs].copy(), b.omega[envs].copy(), b.base_x[envs].copy(),
-                sh.pos[envs].copy(), sh.vel[envs].copy(), sh.shot_time[envs].copy())
+        sh = self.shuttle
+        return (self.bodies.snapshot(envs), sh.pos[envs].copy(), sh.vel[envs].copy(),
+                sh.shot_time[envs].copy())
 
     def _restore(self, envs: np.ndarray, saved: tuple) -> None:
-        b, sh = self.bodies, self.shuttle
-        (b.theta[envs], b.omega[envs], b.base_x[envs], sh.pos[envs], sh.vel[envs],
-         sh.shot_time[envs]) = saved
-        b.mocap[envs, :, 0] = b.forward[envs] * b.base_x[envs]
+        sh = self.shuttle
+        bodies, sh.pos[envs], sh.vel[envs], sh.shot_time[envs] = saved
+        self.bodies.restore(envs, bodies)
         self._refresh()
 
     def _own_into(self, world: np.ndarray, out: np.ndarray) -> None:
@@ -160,14 +165,10 @@ class Game:
     def _observe_shuttle(self) -> None:
         """Fill ``self._q`` for the current state: the shuttle in each face's frame (normal,
         across, along the arm) in columns [0, P), and in the world in the net and floor columns."""
-        b, own, q, P = self.bodies, self._own_buf, self._q, self.n_players
+        own, q, P = self._own_buf, self._q, self.n_players
         self._own_into(self.shuttle.pos, own)
-        s, c = np.sin(b.theta), np.cos(b.theta)
-        dx = own[..., 0] - b.base_x - b.face_offset * s
-        dz = own[..., 2] - b.pivot_z - b.face_offset * c
-        q[:, :P, 0] = dx * c - dz * s
-        q[:, :P, 1] = own[..., 1]
-        q[:, :P, 2] = dx * s + dz * c
+        self.bodies.to_face_frame(own, self._face_buf)
+        q[:, :P] = self._face_buf
         q[:, P] = self.shuttle.pos
         q[:, P + 1] = self.shuttle.pos
 
@@ -178,7 +179,6 @@ class Game:
     def _physics_step(self) -> None:
         b, sh, ev, P = self.bodies, self.shuttle, self.events, self.n_players
         live = self.in_play & self._active
-        theta0 = b.theta.copy()
         p0 = sh.pos.copy()
         v0 = sh.vel.copy()
         q0, self._q = self._q, self._q0
@@ -202,7 +202,7 @@ class Game:
         met, t = rules.segment_box_entry(q0, self._q, self._lo, self._hi)
         hit = met[:, :P] & self.armed & live[:, None]
         if hit.any():
-            self._apply_hits(hit, t[:, :P], theta0, p0)
+            self._apply_hits(hit, t[:, :P], p0)
             self._observe_shuttle()
             met2, t2 = rules.segment_box_entry(q0[:, P:], self._q[:, P:], self._lo[P:],
                                                self._hi[P:])
@@ -227,22 +227,23 @@ class Game:
             self.armed[idx] = False
             sh.vel[idx] = 0.0
 
-    def _apply_hits(self, hit: np.ndarray, t: np.ndarray, theta0: np.ndarray,
-                    p0: np.ndarray) -> None:
-        """Shuttles met by an armed face leave at twice the face centre's velocity (SPEC §5)."""
+    def _apply_hits(self, hit: np.ndarray, t: np.ndarray, p0: np.ndarray) -> None:
+        """Shuttles met by an armed face leave as the bodies' shot rule says (SIMPLE: at twice
+        the face centre's velocity, SPEC §5), from the point of contact."""
         b, sh, ev = self.bodies, self.shuttle, self.events
         env, player = np.nonzero(hit)
         # one hitter per shuttle: the first in player order (only one is armed in a rally)
         env, first = np.unique(env, return_index=True)
         player = player[first]
-        th = theta0[env, player] + t[env, player] * (b.theta[env, player] - theta0[env, player])
-        w = b.omega[env, player]
+        tk = t[env, player]
+        racket = b.racket_velocity(env, player, tk)
+        shot = b.shot_velocity(racket)
         f = self._fwd[env, player]
-        racket = np.stack([f * b.face_offset * w * np.cos(th), np.zeros(len(env)),
-                           -b.face_offset * w * np.sin(th)], axis=1)
-        at = p0[env] + t[env, player][:, None] * (sh.pos[env] - p0[env])
-        sh.vel[env] = 2.0 * racket
-        sh.pos[env] = at + sh.vel[env] * (1.0 - t[env, player])[:, None] * PHYSICS_DT
+        shot[:, 0] *= f  # own frame -> world
+        shot[:, 1] *= f
+        at = p0[env] + tk[:, None] * (sh.pos[env] - p0[env])
+        sh.vel[env] = shot
+        sh.pos[env] = at + sh.vel[env] * (1.0 - tk)[:, None] * PHYSICS_DT
         mask = np.zeros(self.n_envs, bool)
         mask[env] = True
         sh.shot(mask)
