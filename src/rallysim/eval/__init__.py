@@ -1,0 +1,1 @@
+"""Evaluation: rally statistics with confidence intervals, tables and plots."""
