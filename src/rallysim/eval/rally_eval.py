@@ -1,0 +1,79 @@
+"""Play evaluation rallies: each of N batched rallies is played exactly once.
+
+Three ways to play, matching the paper's Table VII rows:
+- hierarchical: a high-level chooser picks each player's goal at the start of its turn, a
+  low-level controller swings (``rally_lengths_turns``);
+- random high level: the same with goals ~ U[2, 6] m (``random_goals``);
+- monolithic: one policy maps each player's 20-value observation to actions every decision
+  (``rally_lengths_direct``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from rallysim.envs.rally_task import RALLY_OBS_SIZE, RallyConfig, RallyTask
+from rallysim.envs.simple_obs import PLAYER_OBS_SIZE, TARGET_DEPTH_RANGE, normalise_depth
+from rallysim.envs.turn_task import LowLevel, TurnTask
+
+HighLevel = Callable[[np.ndarray], np.ndarray]  # (M, 20) observations -> (M,) goals in metres
+Policy = Callable[[np.ndarray], np.ndarray]  # (M, obs) -> (M, 3) actions
+
+
+def random_goals(seed: int) -> HighLevel:
+    """The "Random High-level" baseline: goals ~ U[2, 6] m at every turn."""
+    rng = np.random.default_rng(seed)
+    return lambda obs: rng.uniform(*TARGET_DEPTH_RANGE, len(obs))
+
+
+def goal_conditioned(low_policy: Policy) -> LowLevel:
+    """A low-level policy of ``RallySim/SimpleReturn-v0`` (17 inputs: the player's 16 values and
+    the scaled goal) as the rally's ``(observations, goals) -> actions`` controller."""
+
+    def act(obs: np.ndarray, goals: np.ndarray) -> np.ndarray:
+        x = np.empty((len(obs), PLAYER_OBS_SIZE + 1), np.float32)
+        x[:, :PLAYER_OBS_SIZE] = obs[:, :PLAYER_OBS_SIZE]
+        x[:, PLAYER_OBS_SIZE] = normalise_depth(goals)
+        return low_policy(x)
+
+    return act
+
+
+def rally_lengths_turns(high_level: HighLevel, low_level: LowLevel | str, n_rallies: int,
+                        seed: int, config: RallyConfig | None = None,
+                        max_turns: int = 10_000) -> np.ndarray:
+    """Lengths of ``n_rallies`` rallies played turn by turn (cooperative rules)."""
+    turns = TurnTask(n_rallies, low_level, config, seed=seed)
+    turns.reset(np.arange(n_rallies))
+    lengths = np.full(n_rallies, -1, np.int64)
+    for _ in range(max_turns):
+        playing = np.flatnonzero(lengths < 0)
+        if not len(playing):
+            return lengths
+        goals = np.full(n_rallies, 4.0)
+        goals[playing] = high_level(turns.observe()[playing])
+        out = turns.step(goals, playing)
+        done = playing[(out["terminated"] | out["truncated"])[playing]]
+        lengths[done] = out["rally_length"][done]
+    raise RuntimeError(f"rallies still going after {max_turns} turns")
+
+
+def rally_lengths_direct(policy: Policy, n_rallies: int, seed: int,
+                         config: RallyConfig | None = None,
+                         max_decisions: int = 100_000) -> np.ndarray:
+    """Lengths of ``n_rallies`` rallies where ``policy`` acts for both players every decision."""
+    task = RallyTask(n_rallies, config, seed=seed)
+    task.reset(np.arange(n_rallies))
+    lengths = np.full(n_rallies, -1, np.int64)
+    for _ in range(max_decisions):
+        playing = lengths < 0
+        if not playing.any():
+            return lengths
+        obs = task.observe().reshape(2 * n_rallies, RALLY_OBS_SIZE)
+        actions = np.clip(policy(obs), -1.0, 1.0).reshape(n_rallies, 2, 3)
+        _, term, trunc, info = task.step(actions, active=playing)
+        done = playing & (term | trunc)
+        lengths[done] = info["rally_length"][done]
+    raise RuntimeError(f"rallies still going after {max_decisions} decisions")
