@@ -4,9 +4,9 @@ import numpy as np
 
 from rallysim.eval.rally_eval import (
     goal_conditioned,
-    random_goals,
     rally_lengths_direct,
     rally_lengths_turns,
+    random_goals,
 )
 from rallysim.policies import ScriptedController
 

@@ -67,6 +67,7 @@ from gymnasium import spaces
 from pettingzoo import AECEnv, ParallelEnv
 
 from rallysim.envs.rally_task import RALLY_OBS_SIZE, RallyConfig, RallyTask
+from rallysim.envs.rendering import RENDER_MODES, EnvView
 from rallysim.envs.simple_obs import TARGET_DEPTH_RANGE
 from rallysim.envs.turn_task import LowLevel, TurnTask
 from rallysim.envs.validation import validate_actions
@@ -88,6 +89,13 @@ def _act_space() -> spaces.Box:
 
 def _goal_space() -> spaces.Box:
     return spaces.Box(*TARGET_DEPTH_RANGE, (1,), np.float32)
+
+
+def render_rally(view: EnvView, task: RallyTask, env: int,
+                 goals: np.ndarray | None = None) -> np.ndarray | None:
+    score = task.score[env]
+    hud = f"rally {int(task.game.hits[env])}   score {score[0]}-{score[1]}"
+    return view.render(task.game, env, None if goals is None else list(goals), hud)
 
 
 def _agent_info(info: dict, env: int, player: int) -> dict[str, Any]:
@@ -127,11 +135,10 @@ def _check_agent_actions(actions: Any, live: list[str]) -> None:
 class SimpleRallyParallelEnv(ParallelEnv):
     """One rally, both players acting every decision. See the module docstring."""
 
-    metadata = {"name": "simple_rally_v0", "render_modes": [], "render_fps": 10}
+    metadata = {"name": "simple_rally_v0", "render_modes": RENDER_MODES, "render_fps": 10}
 
     def __init__(self, render_mode: str | None = None, **config: Any) -> None:
-        if render_mode is not None:
-            raise ValueError(f"render_mode {render_mode!r} is not supported; valid: None")
+        self._view = EnvView(render_mode, n_players=2)
         self.task = RallyTask(1, RallyConfig(**config))
         self.possible_agents = list(AGENTS)
         self.agents: list[str] = []
@@ -151,8 +158,18 @@ class SimpleRallyParallelEnv(ParallelEnv):
             self.task.game.seed(np.array([0]), seed)
         self.task.reset(np.array([0]))
         self.agents = list(AGENTS)
+        self._view.new_episode()
+        if self.render_mode == "human":
+            self.render()
         obs = self.task.observe()[0]
         return {a: obs[i] for i, a in enumerate(AGENTS)}, {a: {} for a in AGENTS}
+
+    def render(self) -> np.ndarray | None:
+        """Side view of the rally with its length and score burned in (``"rgb_array"``)."""
+        return render_rally(self._view, self.task, 0)
+
+    def close(self) -> None:
+        self._view.close()
 
     def step(self, actions: dict[str, Any]):
         _check_agent_actions(actions, self.agents)
@@ -169,6 +186,8 @@ class SimpleRallyParallelEnv(ParallelEnv):
         )
         if term[0] or trunc[0]:
             self.agents = []
+        if self.render_mode == "human":
+            self.render()
         return out
 
     def state(self) -> np.ndarray:
@@ -185,12 +204,15 @@ class SimpleRallyVectorEnv(NativeVectorEnv):
     """N rallies as 2N Gymnasium slots, slot 2e + p being player p of rally e, for trainers
     that share one policy across players. Rewards, ends and autoreset as the parallel env."""
 
-    metadata = {"render_modes": [], "render_fps": 10, "autoreset_mode": NEXT_STEP}
+    metadata = {"render_modes": RENDER_MODES, "render_fps": 10, "autoreset_mode": NEXT_STEP}
     slots_per_unit = 2
 
     def __init__(self, num_rallies: int = 1, autoreset_mode: str = "next_step",
-                 seed: int | None = None, **config: Any) -> None:
+                 seed: int | None = None, render_mode: str | None = None,
+                 **config: Any) -> None:
         self._setup(num_rallies, autoreset_mode)
+        self.render_mode = render_mode
+        self._view = EnvView(render_mode, n_players=2)
         self.task = RallyTask(self.num_units, RallyConfig(**config), seed)
         self.single_observation_space, self.single_action_space = _obs_space(), _act_space()
         self.observation_space = spaces.Box(-1.0, 1.0, (self.num_envs, RALLY_OBS_SIZE),
@@ -214,17 +236,25 @@ class SimpleRallyVectorEnv(NativeVectorEnv):
     def _observe(self) -> np.ndarray:
         return self.task.observe().reshape(self.num_envs, RALLY_OBS_SIZE)
 
+    def render(self) -> tuple[np.ndarray, ...] | None:
+        """A frame of rally 0 (``"rgb_array"``)."""
+        frame = render_rally(self._view, self.task, 0)
+        return None if frame is None else (frame,)
+
+    def close_extras(self, **kwargs: Any) -> None:
+        self._view.close()
+
 
 class SimpleRallyTurnAECEnv(AECEnv):
     """The turn-based rally as a PettingZoo ``AECEnv``. See the module docstring."""
 
-    metadata = {"name": "simple_rally_turn_v0", "render_modes": [], "is_parallelizable": False}
+    metadata = {"name": "simple_rally_turn_v0", "render_modes": RENDER_MODES,
+                "is_parallelizable": False, "render_fps": 1}
 
     def __init__(self, low_level: LowLevel | str = "scripted", render_mode: str | None = None,
                  **config: Any) -> None:
         super().__init__()
-        if render_mode is not None:
-            raise ValueError(f"render_mode {render_mode!r} is not supported; valid: None")
+        self._view = EnvView(render_mode, n_players=2)
         self.turns = TurnTask(1, low_level, RallyConfig(**config))
         self.possible_agents = list(AGENTS)
         self.agents = []
@@ -253,6 +283,14 @@ class SimpleRallyTurnAECEnv(AECEnv):
         self.truncations = {a: False for a in AGENTS}
         self.infos = {a: {} for a in AGENTS}
         self.agent_selection = AGENTS[self.turns.turn_player[0]]
+        self._view.new_episode()
+
+    def render(self) -> np.ndarray | None:
+        """The rally at the start of the current turn, goals as red markers (``"rgb_array"``)."""
+        return render_rally(self._view, self.turns.rally, 0, self.turns.goals[0])
+
+    def close(self) -> None:
+        self._view.close()
 
     def step(self, action: Any) -> None:
         agent = self.agent_selection
@@ -277,6 +315,8 @@ class SimpleRallyTurnAECEnv(AECEnv):
         else:
             self.agent_selection = AGENTS[self.turns.turn_player[0]]
         self._accumulate_rewards()
+        if self.render_mode == "human":
+            self.render()
 
 
 def turn_env(low_level: LowLevel | str = "scripted", **kwargs: Any) -> SimpleRallyTurnAECEnv:
@@ -289,16 +329,18 @@ class SimpleRallyTurnVectorEnv(NativeVectorEnv):
     rally, observed by whoever's turn it is; its action is that player's goal; its reward is the
     span's cooperative reward; ``info["decisions"]`` is the span's length."""
 
-    metadata = {"render_modes": [], "autoreset_mode": NEXT_STEP}
+    metadata = {"render_modes": RENDER_MODES, "render_fps": 1, "autoreset_mode": NEXT_STEP}
 
     def __init__(self, num_envs: int = 1, low_level: LowLevel | str = "scripted",
                  autoreset_mode: str = "next_step", seed: int | None = None,
-                 **config: Any) -> None:
+                 render_mode: str | None = None, **config: Any) -> None:
         cfg = RallyConfig(**config)
         if cfg.mode != "cooperative":
             raise ValueError("the single-agent turn view is cooperative; use turn_env() for "
                              "the competitive game")
         self._setup(num_envs, autoreset_mode)
+        self.render_mode = render_mode
+        self._view = EnvView(render_mode, n_players=2)
         self.turns = TurnTask(self.num_units, low_level, cfg, seed)
         self.single_observation_space, self.single_action_space = _obs_space(), _goal_space()
         self.observation_space = spaces.Box(-1.0, 1.0, (self.num_envs, RALLY_OBS_SIZE),
@@ -332,14 +374,25 @@ class SimpleRallyTurnVectorEnv(NativeVectorEnv):
     def _observe(self) -> np.ndarray:
         return self.turns.observe()
 
+    def render(self) -> tuple[np.ndarray, ...] | None:
+        """A frame of rally 0 at its current turn (``"rgb_array"``)."""
+        frame = render_rally(self._view, self.turns.rally, 0, self.turns.goals[0])
+        return None if frame is None else (frame,)
+
+    def close_extras(self, **kwargs: Any) -> None:
+        self._view.close()
+
 
 class SimpleRallyTurnEnv(gym.Env):
     """One cooperative turn-based rally as a single-agent Gymnasium env (one shared policy)."""
 
-    metadata = {"render_modes": []}
+    metadata = {"render_modes": RENDER_MODES, "render_fps": 1}
 
-    def __init__(self, low_level: LowLevel | str = "scripted", **config: Any) -> None:
-        self.vec = SimpleRallyTurnVectorEnv(1, low_level=low_level, **config)
+    def __init__(self, low_level: LowLevel | str = "scripted", render_mode: str | None = None,
+                 **config: Any) -> None:
+        self.render_mode = render_mode
+        self.vec = SimpleRallyTurnVectorEnv(1, low_level=low_level, render_mode=render_mode,
+                                            **config)
         self.observation_space, self.action_space = _obs_space(), _goal_space()
         self._done = True
 
@@ -356,3 +409,10 @@ class SimpleRallyTurnEnv(gym.Env):
         self._done = bool(term[0] or trunc[0])
         return (obs[0], float(r[0]), bool(term[0]), bool(trunc[0]),
                 {k: v[0].item() for k, v in info.items()})
+
+    def render(self) -> np.ndarray | None:
+        frames = self.vec.render()
+        return None if frames is None else frames[0]
+
+    def close(self) -> None:
+        self.vec.close()

@@ -65,6 +65,7 @@ import numpy as np
 from gymnasium import spaces
 
 from rallysim.core.game import Game
+from rallysim.envs.rendering import RENDER_MODES, EnvView
 from rallysim.envs.simple_obs import (
     PLAYER_OBS_SIZE,
     TARGET_DEPTH_RANGE,
@@ -179,13 +180,13 @@ def _spaces() -> tuple[spaces.Box, spaces.Box]:
 class SimpleReturnEnv(gym.Env):
     """One environment of the SIMPLE low-level task. See the module docstring."""
 
-    metadata = {"render_modes": [], "render_fps": 10}
+    metadata = {"render_modes": RENDER_MODES, "render_fps": 10}
 
     def __init__(self, shuttle: str = "paper",
                  target_depth_range: tuple[float, float] = TARGET_DEPTH_RANGE,
                  max_decisions: int = MAX_DECISIONS, render_mode: str | None = None) -> None:
-        if render_mode is not None:
-            raise ValueError(f"render_mode {render_mode!r} is not supported; valid: None")
+        self.render_mode = render_mode
+        self._view = EnvView(render_mode, n_players=1)
         self.observation_space, self.action_space = _spaces()
         self.task = ReturnTask(1, shuttle, None, target_depth_range, max_decisions)
         self._done = True
@@ -196,7 +197,17 @@ class SimpleReturnEnv(gym.Env):
             self.task.game.seed(np.array([0]), seed)
         self.task.reset(np.array([0]), options)
         self._done = False
+        self._view.new_episode()
+        if self.render_mode == "human":
+            self.render()
         return self.task.observe()[0], {"target_depth": float(self.task.goal[0])}
+
+    def render(self) -> np.ndarray | None:
+        """The court from the side with the target landing spot in red (``"rgb_array"``)."""
+        return render_return(self._view, self.task, 0)
+
+    def close(self) -> None:
+        self._view.close()
 
     def step(self, action):
         if self._done:
@@ -204,6 +215,8 @@ class SimpleReturnEnv(gym.Env):
         a = validate_actions(action, (ACTION_SIZE,))
         reward, term, trunc, info = self.task.step(a[None, :])
         self._done = bool(term[0] or trunc[0])
+        if self.render_mode == "human":
+            self.render()
         # Event values appear only when their event happened (Gymnasium's single-env habit).
         keep = {"hit", "net_touch", "landed", "target_depth"}
         if info["hit"][0]:
@@ -212,6 +225,12 @@ class SimpleReturnEnv(gym.Env):
             keep |= set(LANDING_KEYS)
         return (self.task.observe()[0], float(reward[0]), bool(term[0]), bool(trunc[0]),
                 {k: _scalar(v[0]) for k, v in info.items() if k in keep})
+
+
+def render_return(view: EnvView, task: ReturnTask, env: int) -> np.ndarray | None:
+    hud = (f"target {task.goal[env]:.2f} m   t {0.1 * task.elapsed[env]:.1f} s   "
+           f"shuttle {task.game.flight.name}")
+    return view.render(task.game, env, float(task.goal[env]), hud)
 
 
 def _scalar(v):
@@ -226,15 +245,17 @@ class SimpleReturnVectorEnv(NativeVectorEnv):
     Gymnasium default) or ``"same_step"``; see ``rallysim.envs.vector_base.NativeVectorEnv``.
     """
 
-    metadata = {"render_modes": [], "render_fps": 10, "autoreset_mode": NEXT_STEP}
+    metadata = {"render_modes": RENDER_MODES, "render_fps": 10, "autoreset_mode": NEXT_STEP}
 
     def __init__(self, num_envs: int = 1, shuttle: str = "paper",
                  target_depth_range: tuple[float, float] = TARGET_DEPTH_RANGE,
                  max_decisions: int = MAX_DECISIONS, autoreset_mode: str = "next_step",
-                 render_mode: str | None = None, seed: int | None = None) -> None:
-        if render_mode is not None:
-            raise ValueError(f"render_mode {render_mode!r} is not supported; valid: None")
+                 render_mode: str | None = None, seed: int | None = None,
+                 render_envs: int = 1) -> None:
         self._setup(num_envs, autoreset_mode)
+        self.render_mode = render_mode
+        # one view per rendered environment (each keeps its own shuttle trail)
+        self._views = [EnvView(render_mode, 1) for _ in range(min(render_envs, num_envs))]
         n = self.num_envs
         self.single_observation_space, self.single_action_space = _spaces()
         self.observation_space = spaces.Box(-1.0, 1.0, (n, OBS_SIZE), np.float32)
@@ -257,6 +278,16 @@ class SimpleReturnVectorEnv(NativeVectorEnv):
 
     def _observe(self) -> np.ndarray:
         return self.task.observe()
+
+    def render(self) -> tuple[np.ndarray, ...] | None:
+        """Frames of the first ``render_envs`` environments (``"rgb_array"``)."""
+        if self.render_mode is None:
+            return None
+        return tuple(render_return(v, self.task, e) for e, v in enumerate(self._views))
+
+    def close_extras(self, **kwargs: Any) -> None:
+        for v in self._views:
+            v.close()
 
     def _blank_info(self, info: dict, units: np.ndarray) -> None:
         super()._blank_info(info, units)

@@ -1,0 +1,61 @@
+"""The HUMAN-LIKE player's observation (SPEC §10), without the goal.
+
+Every value is in the observing player's own frame (it stands at x < 0 facing +x) and scaled to
+[-1, 1] by a fixed affine map (then clipped by the task). The 82 values:
+
+| index | value | raw range mapped to [-1, 1] |
+|---|---|---|
+| 14 b + 0-2 | body b's velocity (its joint's point) | [-15, 15] m/s |
+| 14 b + 3-5 | body b's angular velocity | [-40, 40] rad/s |
+| 14 b + 6-8 | body b's joint position relative to the hips centre | [-1.5, 1.5] m |
+| 14 b + 9-12 | body b's orientation quaternion w, x, y, z (w >= 0) | as is |
+| 14 b + 13 | body b's joint torque magnitude, a fraction f of its group's maximum | 2 f - 1 |
+| 70-72 | shuttle position | x, y in [-10, 10], [-5, 5] m; z in [0, 12] m |
+| 73-75 | shuttle velocity | [-30, 30] m/s |
+| 76-78 | player (hips centre) position | as the shuttle position |
+| 79-81 | racket head (face centre) position | as the shuttle position |
+
+Bodies b = 0-4 are the spine, chest, right upper arm, right lower arm and right hand. Positions
+of the shuttle, hips and racket share one map (``simple_obs``'s), so that a policy can compare
+them directly.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from rallysim.core.game import Game
+from rallysim.core.humanlike import HumanLikeBodies
+from rallysim.envs.simple_obs import SHUTTLE_SPEED_SCALE, normalise_position
+
+N_BODIES = 5
+BODY_OBS_SIZE = 14
+PLAYER_OBS_SIZE = N_BODIES * BODY_OBS_SIZE + 12  # 82
+BODY_SPEED_SCALE = 15.0  # m/s: the hand of a full-speed swing
+BODY_RATE_SCALE = 40.0  # rad/s: joints are capped at 30 (50 when limp)
+BODY_OFFSET_SCALE = 1.5  # m: the hand reaches 1.2 m from the hips
+SHUTTLE = slice(70, 76)  # shuttle position and velocity
+HIPS = slice(76, 79)
+RACKET = slice(79, 82)
+
+
+def player_observations(game: Game) -> np.ndarray:
+    """(N, P, 82) float64 observations of every HUMAN-LIKE player, own frame, scaled (not yet
+    clipped). ``game.bodies`` must be ``HumanLikeBodies``."""
+    b: HumanLikeBodies = game.bodies  # type: ignore[assignment]
+    n, p = game.n_envs, game.n_players
+    out = np.empty((n, p, PLAYER_OBS_SIZE))
+    body = out[..., :N_BODIES * BODY_OBS_SIZE].reshape(n, p, N_BODIES, BODY_OBS_SIZE)
+    vel, ang, rel, quat = b.body_states()
+    body[..., 0:3] = vel / BODY_SPEED_SCALE
+    body[..., 3:6] = ang / BODY_RATE_SCALE
+    body[..., 6:9] = rel / BODY_OFFSET_SCALE
+    body[..., 9:13] = quat
+    body[..., 13] = 2.0 * b.body_effort() - 1.0
+    fwd = b.forward  # x and y change sign in player 1's frame, z does not
+    flip = np.stack([fwd, fwd, np.ones_like(fwd)], axis=-1)
+    out[..., 70:73] = normalise_position(game.shuttle.pos[:, None, :] * flip)
+    out[..., 73:76] = game.shuttle.vel[:, None, :] * flip / SHUTTLE_SPEED_SCALE
+    out[..., HIPS] = normalise_position(b.hips_position())
+    out[..., RACKET] = normalise_position(b.face_centre())
+    return out

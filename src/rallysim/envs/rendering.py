@@ -1,0 +1,80 @@
+"""Rendering for the env views: ``render_mode="rgb_array"`` frames and ``"human"`` windows.
+
+The renderer (``rallysim.render``, an optional extra) is created on the first ``render()``
+call, so envs without rendering never touch OpenGL.
+"""
+
+from __future__ import annotations
+
+import os
+from typing import Any
+
+import numpy as np
+
+
+
+def has_display() -> bool:
+    return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+
+
+# "human" opens a window, so it is offered only where a display exists (checkers such as
+# Gymnasium's env_checker try every listed mode).
+RENDER_MODES = ["rgb_array", "human"] if has_display() else ["rgb_array"]
+
+
+def check_render_mode(render_mode: str | None) -> str | None:
+    if render_mode is not None and render_mode not in ("rgb_array", "human"):
+        raise ValueError(f"unknown render_mode {render_mode!r}; valid: None, 'rgb_array', "
+                         "'human' (with a display)")
+    if render_mode == "human" and not has_display():
+        raise ValueError("render_mode='human' needs a display (DISPLAY is unset); use "
+                         "render_mode='rgb_array' and rallysim.render.write_video instead")
+    return render_mode
+
+
+class EnvView:
+    """Draws environment ``env_index`` of a ``Game`` for one env view."""
+
+    def __init__(self, render_mode: str | None, n_players: int, width: int = 640,
+                 height: int = 360, camera: str = "side") -> None:
+        self.mode = check_render_mode(render_mode)
+        self.n_players, self.size, self.camera = n_players, (width, height), camera
+        self._scene: Any = None
+        self._viewer: Any = None
+
+    def _scene_renderer(self) -> Any:
+        if self._scene is None:
+            try:
+                from rallysim.render import SceneRenderer
+            except ImportError as err:
+                raise ImportError("rendering needs the render extra: "
+                                  "pip install 'rallysim[render]'") from err
+            self._scene = SceneRenderer(self.n_players, *self.size, camera=self.camera)
+        return self._scene
+
+    def new_episode(self) -> None:
+        if self._scene is not None:
+            self._scene.reset_trail()
+
+    def render(self, game: Any, env_index: int = 0, target_depth: Any = None,
+               hud_text: str | None = None) -> np.ndarray | None:
+        if self.mode is None:
+            return None
+        scene = self._scene_renderer()
+        frame = scene.render(game, env_index, target_depth, hud_text)
+        if self.mode == "rgb_array":
+            return frame
+        if self._viewer is None:
+            import mujoco.viewer
+
+            self._viewer = mujoco.viewer.launch_passive(scene.model, scene.data)
+        self._viewer.sync()
+        return None
+
+    def close(self) -> None:
+        if self._viewer is not None:
+            self._viewer.close()
+            self._viewer = None
+        if self._scene is not None:
+            self._scene.close()
+            self._scene = None
