@@ -12,7 +12,6 @@ from typing import Any
 import numpy as np
 
 
-
 def has_display() -> bool:
     return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
 

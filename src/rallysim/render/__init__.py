@@ -9,7 +9,7 @@ from rallysim.render.backend import active_backend, available_backends, select_b
 select_backend()  # before any renderer exists (and before mujoco, where it is not yet imported)
 
 # ruff: noqa: E402 -- these imports must follow the backend choice
-from rallysim.render.record import record_low_level
+from rallysim.render.record import record_low_level, record_rally
 from rallysim.render.scene import SceneRenderer
 from rallysim.render.video import write_strip, write_video
 
@@ -18,6 +18,7 @@ __all__ = [
     "active_backend",
     "available_backends",
     "record_low_level",
+    "record_rally",
     "select_backend",
     "write_strip",
     "write_video",

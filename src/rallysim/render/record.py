@@ -8,7 +8,9 @@ from collections.abc import Callable
 import numpy as np
 
 from rallysim.core.game import PHYSICS_DT, PHYSICS_STEPS_PER_DECISION
+from rallysim.envs.rally_task import RALLY_OBS_SIZE, RallyConfig, RallyTask
 from rallysim.envs.simple_return_v0 import SimpleReturnEnv
+from rallysim.envs.turn_task import LowLevel, resolve_low_level
 from rallysim.policies.scripted import ScriptedController
 from rallysim.render.scene import SceneRenderer
 
@@ -80,3 +82,63 @@ def _hud(title: str, decisions: int, goal: float, total: float, event: str) -> s
     line1 = f"{title}   t = {decisions * DECISION_SECONDS:.1f} s   reward {total:+.3f}"
     line2 = f"target {goal:.2f} m" + (f"   {event}" if event else "")
     return f"{line1}\n{line2}"
+
+
+HighLevel = Callable[[np.ndarray], np.ndarray]  # (M, 20) observations -> (M,) goals
+
+
+def record_rally(n_rallies: int = 1, high_level: HighLevel | None = None,
+                 low_level: LowLevel | str = "scripted", seed: int = 0,
+                 config: RallyConfig | None = None, width: int = 640, height: int = 360,
+                 camera: str = "side", max_decisions: int = 2000,
+                 renderer: SceneRenderer | None = None) -> list[np.ndarray]:
+    """Play ``n_rallies`` rallies (or competitive games) and render every decision.
+
+    Each player's goal is chosen by ``high_level`` when its turn begins (default: uniform in
+    [2, 6] m) and shown as its red marker; ``low_level`` swings. The HUD shows the rally
+    length and the score. Rally k is seeded ``seed + k``."""
+    if n_rallies < 1:
+        raise ValueError(f"n_rallies must be >= 1, got {n_rallies}")
+    rng = np.random.default_rng(seed)
+    choose = high_level or (lambda obs: rng.uniform(2.0, 6.0, len(obs)))
+    low = resolve_low_level(low_level, seed)
+    own = renderer is None
+    view = SceneRenderer(2, width, height, camera) if renderer is None else renderer
+    frames: list[np.ndarray] = []
+    try:
+        for k in range(n_rallies):
+            task = RallyTask(1, config, seed=seed + k)
+            task.reset(np.array([0]))
+            view.reset_trail()
+            frames += _rally(task, view, choose, low, f"rally {k + 1}/{n_rallies}",
+                             max_decisions)
+    finally:
+        if own:
+            view.close()
+    return frames
+
+
+def _rally(task: RallyTask, view: SceneRenderer, choose: HighLevel, low: LowLevel, title: str,
+           max_decisions: int) -> list[np.ndarray]:
+    goals = np.full(2, 4.0)
+    frames = []
+    for decisions in range(max_decisions + 1):
+        obs = task.observe()[0]
+        starting = task.turn_started[0]
+        if starting.any():
+            goals[starting] = choose(obs[starting])
+        score = task.score[0]
+        hud = (f"{title}   t = {decisions * DECISION_SECONDS:.1f} s\n"
+               f"rally length {int(task.game.hits[0])}   score {score[0]}-{score[1]}")
+        frames.append(view.render(task.game, 0, list(goals), hud))
+        if decisions == max_decisions:
+            break
+        actions = np.clip(low(obs.reshape(2, RALLY_OBS_SIZE), goals), -1.0, 1.0)
+        _, term, trunc, _ = task.step(actions.reshape(1, 2, 3))
+        if term[0] or trunc[0]:
+            score = task.score[0]
+            frames.append(view.render(task.game, 0, list(goals), (
+                f"{title}   over after {decisions + 1} decisions\n"
+                f"rally length {int(task.game.hits[0])}   score {score[0]}-{score[1]}")))
+            break
+    return frames
