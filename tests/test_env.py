@@ -7,6 +7,7 @@ from gymnasium.utils.env_checker import check_env
 
 import rallysim  # noqa: F401  (registers the envs)
 from rallysim.envs.simple_return_v0 import SimpleReturnEnv, SimpleReturnVectorEnv
+from rallysim.eval.low_eval import evaluate_return
 from rallysim.policies import ScriptedController
 
 
@@ -193,25 +194,11 @@ def test_next_step_and_same_step_autoreset():
 
 def test_scripted_controller_returns_most_serves_near_target():
     env = SimpleReturnVectorEnv(128, autoreset_mode="same_step")
-    obs, _ = env.reset(seed=0)
-    c = ScriptedController()
-    ep = np.zeros(128)
-    hit = np.zeros(128, bool)
-    rewards, hits, errors, ins = [], [], [], []
-    for _ in range(200):
-        obs, r, term, trunc, info = env.step(c.act_return(obs))
-        ep += r
-        hit |= info["hit"]
-        for e in np.flatnonzero(term | trunc):
-            fi = info["final_info"]
-            rewards.append(ep[e])
-            hits.append(hit[e])
-            ins.append(fi["landed_in"][e])
-            if hit[e]:
-                errors.append(fi["landing_error"][e])
-            ep[e], hit[e] = 0.0, False
-    assert len(rewards) > 600
-    assert np.mean(hits) > 0.95
-    assert np.mean(ins) > 0.9
-    assert np.median(errors) < 0.6
-    assert np.mean(rewards) > 1.5
+    r = evaluate_return(ScriptedController().act_return, env, episodes=768, seed=0)
+    assert r.hit_rate > 0.95
+    assert r.in_rate > 0.9
+    assert r.median_error < 0.6
+    assert r.mean_reward > 1.5
+    rnd = np.random.default_rng(0)
+    flail = evaluate_return(lambda o: rnd.uniform(-1, 1, (len(o), 3)), env, 256, seed=0)
+    assert flail.hit_rate < 0.3 and flail.mean_reward < 0.3  # flailing hits one serve in five

@@ -1,10 +1,11 @@
-"""The ``rallysim`` command line."""
+"""The ``rallysim`` command line: ``demo``, ``render``, ``play``."""
 
 from __future__ import annotations
 
 import argparse
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -12,51 +13,135 @@ import numpy as np
 def _demo(args: argparse.Namespace) -> int:
     """Play the low-level task with the scripted controller and print what happened."""
     from rallysim.envs.simple_return_v0 import SimpleReturnVectorEnv
-    from rallysim.policies import ScriptedController
+    from rallysim.eval.low_eval import evaluate_return
+    from rallysim.policies.resolve import low_level_policy
 
     env = SimpleReturnVectorEnv(args.envs, shuttle=args.shuttle, autoreset_mode="same_step")
-    controller = ScriptedController()
-    obs, _ = env.reset(seed=args.seed)
-    returns, hits, errors, ins = [], [], [], []
-    episode = np.zeros(args.envs)
-    hit = np.zeros(args.envs, bool)
     start = time.perf_counter()
-    decisions = 0
-    while len(returns) < args.episodes:
-        obs, reward, term, trunc, info = env.step(controller.act_return(obs))
-        decisions += args.envs
-        episode += reward
-        hit |= info["hit"]
-        for e in np.flatnonzero(term | trunc):
-            final = info["final_info"]
-            returns.append(episode[e])
-            hits.append(hit[e])
-            ins.append(final["landed_in"][e])
-            if hit[e]:
-                errors.append(final["landing_error"][e])
-            episode[e], hit[e] = 0.0, False
+    r = evaluate_return(low_level_policy(args.policy, args.seed), env, args.episodes, args.seed)
     elapsed = time.perf_counter() - start
-    print(f"RallySim/SimpleReturn-v0, shuttle={args.shuttle!r}, scripted controller, "
-          f"{len(returns)} episodes")
-    print(f"  mean episode reward   {np.mean(returns):.3f}  (max about 2.0; paper's PPO 1.8)")
-    print(f"  hit rate              {np.mean(hits):.3f}")
-    print(f"  landed in             {np.mean(ins):.3f}")
-    print(f"  median landing error  {np.median(errors):.3f} m")
-    print(f"  speed                 {decisions / elapsed:,.0f} decisions/s "
+    print(f"RallySim/SimpleReturn-v0, shuttle={args.shuttle!r}, policy={args.policy!r}, "
+          f"{r.episodes} episodes")
+    print(f"  mean episode reward   {r.mean_reward:.3f}  (max about 2.0; paper's PPO 1.8)")
+    print(f"  hit rate              {r.hit_rate:.3f}")
+    print(f"  landed in             {r.in_rate:.3f}")
+    print(f"  median landing error  {r.median_error:.3f} m")
+    print(f"  speed                 {r.decisions / elapsed:,.0f} decisions/s "
           f"with {args.envs} environments")
     return 0
 
 
-def main(argv: list[str] | None = None) -> int:
+def _size(text: str) -> tuple[int, int]:
+    try:
+        w, h = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"size must look like 640x360, got {text!r}") from None
+    if w < 16 or h < 16:
+        raise argparse.ArgumentTypeError("size must be at least 16x16")
+    return w, h
+
+
+def _render(args: argparse.Namespace) -> int:
+    """Write an MP4, a GIF and a strip of stills of N episodes (or rallies)."""
+    from rallysim.envs.rally_task import RallyConfig
+    from rallysim.policies.resolve import high_level_policy, low_level_policy, rally_low_level
+    from rallysim.render import record_low_level, record_rally, write_strip, write_video
+
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    width, height = args.size
+    camera = args.camera
+    print(f"rendering {args.episodes} {args.env} episode(s) with policy {args.policy!r} ...",
+          flush=True)
+    if args.env == "low":
+        frames = record_low_level(args.episodes, low_level_policy(args.policy, args.seed),
+                                  args.seed, args.shuttle, width, height, camera)
+    else:
+        config = RallyConfig(shuttle=args.shuttle, mode=args.mode)
+        frames = record_rally(args.episodes, high_level_policy(args.high, args.seed),
+                              rally_low_level(args.policy, args.seed), args.seed, config,
+                              width, height, camera)
+    stem = out / f"{args.env}_{Path(args.policy).name}"
+    write_video(frames, stem.with_suffix(".mp4"), fps=10)
+    write_video(frames[:: args.gif_every], stem.with_suffix(".gif"),
+                fps=10 / args.gif_every)
+    picks = np.linspace(0, len(frames) - 1, args.stills).round().astype(int)
+    write_strip([frames[i] for i in picks], stem.with_name(stem.name + "_strip.png"),
+                columns=min(4, args.stills))
+    for suffix in (".mp4", ".gif"):
+        print(f"  wrote {stem.with_suffix(suffix)}")
+    print(f"  wrote {stem.with_name(stem.name + '_strip.png')}  ({len(frames)} frames)")
+    return 0
+
+
+def _play(args: argparse.Namespace) -> int:
+    """Open MuJoCo's viewer on a live rally; optionally drive one player by keyboard."""
+    from rallysim.envs.rally_task import RallyConfig
+    from rallysim.envs.rendering import has_display
+    from rallysim.policies.resolve import high_level_policy, rally_low_level
+    from rallysim.render.play import play
+
+    if not has_display():
+        print("rallysim play needs a display (DISPLAY is unset); use `rallysim render` to write "
+              "videos instead", file=sys.stderr)
+        return 2
+    human = None if args.human == "none" else int(args.human)
+    lengths = play(rally_low_level(args.policy, args.seed), high_level_policy(args.high, args.seed),
+                   human=human, config=RallyConfig(shuttle=args.shuttle, mode=args.mode),
+                   seed=args.seed)
+    if lengths:
+        print(f"rallies played: {len(lengths)}, mean length {np.mean(lengths):.1f}")
+    return 0
+
+
+def _common(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--shuttle", default="paper", choices=("paper", "paper-alg1", "aero"))
+    p.add_argument("--seed", type=int, default=0)
+
+
+def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="rallysim", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
-    demo = sub.add_parser("demo", help="watch the scripted controller play the low-level task")
+
+    demo = sub.add_parser("demo", help="play the low-level task and print what happened")
     demo.add_argument("--episodes", type=int, default=2000)
     demo.add_argument("--envs", type=int, default=256)
-    demo.add_argument("--shuttle", default="paper", choices=("paper", "paper-alg1", "aero"))
-    demo.add_argument("--seed", type=int, default=0)
+    demo.add_argument("--policy", default="scripted",
+                      help="scripted, random, pretrained or a policy path prefix")
+    _common(demo)
     demo.set_defaults(run=_demo)
-    args = parser.parse_args(argv)
+
+    render = sub.add_parser("render", help="write an MP4, a GIF and stills of episodes")
+    render.add_argument("--env", choices=("low", "rally"), default="rally")
+    render.add_argument("--policy", default="scripted",
+                        help="low level: scripted, random, pretrained or a policy path prefix")
+    render.add_argument("--high", default="random",
+                        help="rally goals: random, fixed:D, pretrained or a policy path prefix")
+    render.add_argument("--mode", choices=("cooperative", "competitive"), default="cooperative")
+    render.add_argument("--episodes", type=int, default=2)
+    render.add_argument("--camera", choices=("side", "three_quarter"), default="side")
+    render.add_argument("--size", type=_size, default=(640, 360), help="WIDTHxHEIGHT")
+    render.add_argument("--stills", type=int, default=8, help="frames in the strip")
+    render.add_argument("--gif-every", type=int, default=2, help="keep every k-th frame in the GIF")
+    render.add_argument("--out", default="results/videos")
+    _common(render)
+    render.set_defaults(run=_render)
+
+    play = sub.add_parser("play", help="watch a live rally; take over a player by keyboard")
+    play.add_argument("--human", choices=("none", "0", "1"), default="0")
+    play.add_argument("--policy", default="scripted", help="the computer's low level")
+    play.add_argument("--high", default="random", help="the computer's goals")
+    play.add_argument("--mode", choices=("cooperative", "competitive"), default="competitive")
+    _common(play)
+    play.set_defaults(run=_play)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    if getattr(args, "episodes", 1) < 1 or getattr(args, "stills", 1) < 1:
+        print("--episodes and --stills must be >= 1", file=sys.stderr)
+        return 2
     return args.run(args)
 
 

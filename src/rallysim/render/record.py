@@ -19,17 +19,18 @@ DECISION_SECONDS = PHYSICS_DT * PHYSICS_STEPS_PER_DECISION  # 0.1 s
 Policy = Callable[[np.ndarray], np.ndarray]  # one observation (17,) -> one action (3,)
 
 
-def record_low_level(n_episodes: int = 1, policy: str = "scripted", seed: int = 0,
+def record_low_level(n_episodes: int = 1, policy: str | Policy = "scripted", seed: int = 0,
                      shuttle: str = "paper", width: int = 640, height: int = 360,
                      camera: str = "side", renderer: SceneRenderer | None = None,
                      ) -> list[np.ndarray]:
     """Play ``n_episodes`` of ``SimpleReturnEnv`` and render every decision.
 
-    ``policy`` is "scripted" (``ScriptedController``) or "random" (uniform actions). Episode k
+    ``policy`` is "scripted" (``ScriptedController``), "random" (uniform actions) or a batched
+    callable ``(N, 17) observations -> (N, 3) actions``. Episode k
     is reset with seed ``seed + k``, so each episode replays on its own. Each episode gives its
     reset frame and one frame per step, the landing included. Pass a ``renderer`` (one player)
     to reuse its OpenGL context; its size and camera then win over the arguments."""
-    if policy not in POLICIES:
+    if not callable(policy) and policy not in POLICIES:
         raise ValueError(f"unknown policy {policy!r}; valid: {', '.join(map(repr, POLICIES))}")
     if n_episodes < 1:
         raise ValueError(f"n_episodes must be >= 1, got {n_episodes}")
@@ -47,7 +48,9 @@ def record_low_level(n_episodes: int = 1, policy: str = "scripted", seed: int = 
     return frames
 
 
-def _policy(name: str, seed: int) -> Policy:
+def _policy(name: str | Policy, seed: int) -> Policy:
+    if callable(name):
+        return lambda obs: np.asarray(name(obs[None, :]))[0]
     if name == "scripted":
         controller = ScriptedController()
         return lambda obs: controller.act_return(obs[None, :])[0]
