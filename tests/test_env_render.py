@@ -60,3 +60,17 @@ def test_render_mode_errors(monkeypatch):
     monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
     with pytest.raises(ValueError, match="needs a display"):
         simple_rally_v0.parallel_env(render_mode="human")
+
+
+@needs_gl
+def test_vector_trail_restarts_with_each_episode():
+    vec = SimpleReturnVectorEnv(1, render_mode="rgb_array", max_decisions=2)
+    vec.reset(seed=0)
+    for _ in range(2):
+        vec.step(np.zeros((1, 3)))
+        vec.render()
+    trail = vec._views[0]._scene.trail
+    assert len(trail.points) == 2
+    vec.step(np.zeros((1, 3)))  # next-step autoreset: a new serve
+    vec.render()
+    assert len(trail.points) == 1

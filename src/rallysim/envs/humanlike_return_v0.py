@@ -51,6 +51,7 @@ Terminates when the shuttle's centre drops below z = 0; truncates after 1000 dec
 |---|---|---|
 | ``shuttle`` | ``"paper"`` | flight model: ``"paper"``, ``"paper-alg1"`` or ``"aero"`` |
 | ``max_decisions`` | ``1000`` | truncation |
+| ``render_mode`` | ``None`` | ``"rgb_array"``: ``render()`` returns a 640x360 frame (three-quarter view, the target velocity as a red arrow from the racket head); ``"human"`` (with a display): a viewer window |
 
 ``reset(options=...)`` accepts ``target_velocity`` (m/s, own frame, 3 values each in [-5, 5])
 and ``hips_position`` (m, own frame x, y within the hips range); the vector env takes one value
@@ -82,6 +83,7 @@ from rallysim.core.game import PHYSICS_DT, PHYSICS_STEPS_PER_DECISION, Game
 from rallysim.core.humanlike import N_ACTIONS, HumanLikeBodies, humanlike_geometry
 from rallysim.core.shuttle import ShuttleState, make_shuttle_model
 from rallysim.envs.humanlike_obs import HIPS, PLAYER_OBS_SIZE, SHUTTLE, player_observations
+from rallysim.envs.rendering import RENDER_MODES, EnvView
 from rallysim.envs.simple_obs import POSITION_CENTRE, POSITION_SCALE, SHUTTLE_SPEED_SCALE
 from rallysim.envs.validation import check_options, validate_actions
 from rallysim.envs.vector_base import NEXT_STEP, NativeVectorEnv
@@ -232,12 +234,12 @@ def _spaces() -> tuple[spaces.Box, spaces.Box]:
 class HumanLikeReturnEnv(gym.Env):
     """One environment of the HUMAN-LIKE low-level task. See the module docstring."""
 
-    metadata = {"render_modes": [], "render_fps": 10}
+    metadata = {"render_modes": RENDER_MODES, "render_fps": 10}
 
     def __init__(self, shuttle: str = "paper", max_decisions: int = MAX_DECISIONS,
                  render_mode: str | None = None) -> None:
-        if render_mode is not None:
-            raise ValueError(f"render_mode {render_mode!r} is not supported; valid: None")
+        self.render_mode = render_mode
+        self._view = EnvView(render_mode, n_players=1, player="humanlike")
         self.observation_space, self.action_space = _spaces()
         self.task = HumanLikeReturnTask(1, shuttle, None, max_decisions)
         self._done = True
@@ -248,7 +250,18 @@ class HumanLikeReturnEnv(gym.Env):
             self.task.game.seed(np.array([0]), seed)
         self.task.reset(np.array([0]), options)
         self._done = False
+        self._view.new_episode()
+        if self.render_mode == "human":
+            self.render()
         return self.task.observe()[0], {"target_velocity": self.task.goal[0].copy()}
+
+    def render(self) -> np.ndarray | None:
+        """The player's half court from behind its right with the target racket velocity as
+        a red arrow from the racket head (``"rgb_array"``)."""
+        return render_humanlike_return(self._view, self.task, 0)
+
+    def close(self) -> None:
+        self._view.close()
 
     def step(self, action):
         if self._done:
@@ -256,6 +269,8 @@ class HumanLikeReturnEnv(gym.Env):
         a = validate_actions(action, (ACTION_SIZE,))
         reward, term, trunc, info = self.task.step(a[None, :])
         self._done = bool(term[0] or trunc[0])
+        if self.render_mode == "human":
+            self.render()
         # Event values appear only when their event happened (Gymnasium's single-env habit).
         keep = {"hit", "net_touch", "landed", "target_velocity"}
         if info["hit"][0]:
@@ -264,6 +279,14 @@ class HumanLikeReturnEnv(gym.Env):
             keep.add("landing_point")
         return (self.task.observe()[0], float(reward[0]), bool(term[0]), bool(trunc[0]),
                 {k: _scalar(v[0]) for k, v in info.items() if k in keep})
+
+
+def render_humanlike_return(view: EnvView, task: HumanLikeReturnTask, env: int,
+                            ) -> np.ndarray | None:
+    goal = task.goal[env]
+    hud = (f"target ({goal[0]:+.1f}, {goal[1]:+.1f}, {goal[2]:+.1f}) m/s   "
+           f"t {0.1 * task.elapsed[env]:.1f} s   shuttle {task.game.flight.name}")
+    return view.render(task.game, env, hud_text=hud, target_velocity=goal)
 
 
 def _scalar(v):
@@ -277,14 +300,17 @@ class HumanLikeReturnVectorEnv(NativeVectorEnv):
     is ``"next_step"`` (the Gymnasium default) or ``"same_step"``; see
     ``rallysim.envs.vector_base.NativeVectorEnv``."""
 
-    metadata = {"render_modes": [], "render_fps": 10, "autoreset_mode": NEXT_STEP}
+    metadata = {"render_modes": RENDER_MODES, "render_fps": 10, "autoreset_mode": NEXT_STEP}
 
     def __init__(self, num_envs: int = 1, shuttle: str = "paper",
                  max_decisions: int = MAX_DECISIONS, autoreset_mode: str = "next_step",
-                 render_mode: str | None = None, seed: int | None = None) -> None:
-        if render_mode is not None:
-            raise ValueError(f"render_mode {render_mode!r} is not supported; valid: None")
+                 render_mode: str | None = None, seed: int | None = None,
+                 render_envs: int = 1) -> None:
         self._setup(num_envs, autoreset_mode)
+        self.render_mode = render_mode
+        # one view per rendered environment (each keeps its own shuttle trail)
+        self._views = [EnvView(render_mode, 1, player="humanlike")
+                       for _ in range(min(render_envs, num_envs))]
         n = self.num_envs
         self.single_observation_space, self.single_action_space = _spaces()
         self.observation_space = spaces.Box(-1.0, 1.0, (n, OBS_SIZE), np.float32)
@@ -307,6 +333,16 @@ class HumanLikeReturnVectorEnv(NativeVectorEnv):
 
     def _observe(self) -> np.ndarray:
         return self.task.observe()
+
+    def render(self) -> tuple[np.ndarray, ...] | None:
+        """Frames of the first ``render_envs`` environments (``"rgb_array"``)."""
+        if self.render_mode is None:
+            return None
+        return tuple(render_humanlike_return(v, self.task, e) for e, v in enumerate(self._views))
+
+    def close_extras(self, **kwargs: Any) -> None:
+        for v in self._views:
+            v.close()
 
     def _blank_info(self, info: dict, units: np.ndarray) -> None:
         super()._blank_info(info, units)

@@ -32,12 +32,16 @@ def check_render_mode(render_mode: str | None) -> str | None:
 
 
 class EnvView:
-    """Draws environment ``env_index`` of a ``Game`` for one env view."""
+    """Draws environment ``env_index`` of a ``Game`` for one env view.
+
+    ``player`` is the kind of player the env's games have (``"simple"`` or ``"humanlike"``,
+    see ``rallysim.render.SceneRenderer``); ``camera`` None picks that kind's default."""
 
     def __init__(self, render_mode: str | None, n_players: int, width: int = 640,
-                 height: int = 360, camera: str = "side") -> None:
+                 height: int = 360, camera: str | None = None, player: str = "simple") -> None:
         self.mode = check_render_mode(render_mode)
         self.n_players, self.size, self.camera = n_players, (width, height), camera
+        self.player = player
         self._scene: Any = None
         self._viewer: Any = None
 
@@ -48,7 +52,8 @@ class EnvView:
             except ImportError as err:
                 raise ImportError("rendering needs the render extra: "
                                   "pip install 'rallysim[render]'") from err
-            self._scene = SceneRenderer(self.n_players, *self.size, camera=self.camera)
+            self._scene = SceneRenderer(self.n_players, *self.size, camera=self.camera,
+                                        player=self.player)
         return self._scene
 
     def new_episode(self) -> None:
@@ -56,17 +61,26 @@ class EnvView:
             self._scene.reset_trail()
 
     def render(self, game: Any, env_index: int = 0, target_depth: Any = None,
-               hud_text: str | None = None) -> np.ndarray | None:
+               hud_text: str | None = None, *, target_velocity: Any = None,
+               ) -> np.ndarray | None:
+        """A frame (``"rgb_array"``) or a viewer update (``"human"``); targets as in
+        ``SceneRenderer.render``."""
         if self.mode is None:
             return None
         scene = self._scene_renderer()
-        frame = scene.render(game, env_index, target_depth, hud_text)
+        frame = scene.render(game, env_index, target_depth, hud_text,
+                             target_velocity=target_velocity)
         if self.mode == "rgb_array":
             return frame
         if self._viewer is None:
             import mujoco.viewer
 
             self._viewer = mujoco.viewer.launch_passive(scene.model, scene.data)
+        # targets drawn per frame, not bodies of the model (HUMAN-LIKE's arrows; SIMPLE has
+        # none), go to the viewer's own scene
+        with self._viewer.lock():
+            self._viewer.user_scn.ngeom = 0
+            scene.draw_markers(self._viewer.user_scn)
         self._viewer.sync()
         return None
 

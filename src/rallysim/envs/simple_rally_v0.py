@@ -213,6 +213,7 @@ class SimpleRallyVectorEnv(NativeVectorEnv):
         self._setup(num_rallies, autoreset_mode)
         self.render_mode = render_mode
         self._view = EnvView(render_mode, n_players=2)
+        self._views = [self._view]
         self.task = RallyTask(self.num_units, RallyConfig(**config), seed)
         self.single_observation_space, self.single_action_space = _obs_space(), _act_space()
         self.observation_space = spaces.Box(-1.0, 1.0, (self.num_envs, RALLY_OBS_SIZE),
@@ -341,6 +342,7 @@ class SimpleRallyTurnVectorEnv(NativeVectorEnv):
         self._setup(num_envs, autoreset_mode)
         self.render_mode = render_mode
         self._view = EnvView(render_mode, n_players=2)
+        self._views = [self._view]
         self.turns = TurnTask(self.num_units, low_level, cfg, seed)
         self.single_observation_space, self.single_action_space = _obs_space(), _goal_space()
         self.observation_space = spaces.Box(-1.0, 1.0, (self.num_envs, RALLY_OBS_SIZE),

@@ -42,6 +42,7 @@ class NativeVectorEnv(VectorEnv):
     """
 
     slots_per_unit = 1
+    _views: list = []  # renderers of the first units, whose trails restart with each episode
 
     def _setup(self, num_units: int, autoreset_mode: Any) -> None:
         if not isinstance(num_units, int | np.integer) or num_units < 1:
@@ -72,6 +73,12 @@ class NativeVectorEnv(VectorEnv):
     def _reset_info(self) -> dict:
         return {}
 
+    def _restart(self, units: np.ndarray, options: dict | None) -> None:
+        self._reset_units(units, options)
+        for u in units:
+            if u < len(self._views):
+                self._views[u].new_episode()
+
     def _blank_info(self, info: dict, units: np.ndarray) -> None:
         """Clear the events of ``units`` that were only being reset this step."""
         slots = self._slots(units)
@@ -100,7 +107,7 @@ class NativeVectorEnv(VectorEnv):
             if len(seeds) != self.num_units:
                 raise ValueError(f"expected {self.num_units} seeds, got {len(seeds)}")
             self._seed_units(seeds)
-        self._reset_units(np.arange(self.num_units), options)
+        self._restart(np.arange(self.num_units), options)
         self._needs_reset[:] = False
         return self._observe(), self._reset_info()
 
@@ -109,7 +116,7 @@ class NativeVectorEnv(VectorEnv):
         self._pending = pending  # units whose actions are ignored this step
         reward, term, trunc, info = self._step_units(actions)
         if len(pending):  # next-step autoreset: these units ignore their actions and reset
-            self._reset_units(pending, None)
+            self._restart(pending, None)
             reward[self._slots(pending)] = 0.0
             term[pending] = trunc[pending] = False
             self._blank_info(info, pending)
@@ -124,7 +131,7 @@ class NativeVectorEnv(VectorEnv):
                                   for key, v in info.items() if not key.startswith(
                                       ("final", "_final"))}
             info["_final_info"] = slot_done.copy()
-            self._reset_units(np.flatnonzero(done), None)
+            self._restart(np.flatnonzero(done), None)
             obs = self._observe()
         else:
             self._needs_reset = done

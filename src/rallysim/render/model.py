@@ -1,4 +1,5 @@
-"""The rendering model: the court, the SIMPLE players, a shuttle and target markers in one world.
+"""The rendering model: the court, the players (SIMPLE or HUMAN-LIKE), a shuttle and target
+markers in one world.
 
 The simulator's own model (``rallysim.core.bodies``) batches players and carries no shuttle, so
 rendering builds this separate single-world model and copies one environment's state into it.
@@ -21,6 +22,10 @@ MARKER_RGBA = (0.95, 0.05, 0.05, 1.0)
 MARKER_RADIUS = 0.3
 MARKER_HALF_HEIGHT = 0.01  # a thin disc, lifted clear of the court lines (0.002 high)
 PLAYER1_BASE_RGBA = (0.85, 0.5, 0.15, 1.0)  # player 0 keeps the asset's blue
+PLAYER_KINDS = ("simple", "humanlike")
+PLAYER_ASSETS = {"simple": "simple_player.xml", "humanlike": "humanlike_player.xml"}
+# the material player 1's copy is recoloured with, per kind, to tell the two players apart
+PLAYER1_MATERIAL = {"simple": "base", "humanlike": "shirt"}
 HIDDEN_Z = -5.0  # where a marker with no target waits, under the hall floor, out of view
 HALL_FLOOR_RGBA = (0.27, 0.29, 0.33, 1.0)
 HALL_WALL_RGBA = (0.5, 0.58, 0.7, 1.0)
@@ -63,30 +68,46 @@ class CameraPose:
 
 
 # "side" frames the whole 13.4 m court and shots up to about 7 m high, from the side (the
-# paper's Fig. 2); "three_quarter" looks across the net from behind player 0's left.
+# paper's Fig. 2); "three_quarter" looks across the net from behind player 0's right (its
+# racket side; the player faces +x, so its right is -y); "three_quarter_close" is nearer,
+# framing player 0's half (every hips position, arm raised), the net and the far court's
+# front, where serves come from: the HUMAN-LIKE default.
 CAMERAS: dict[str, CameraPose] = {
     "side": CameraPose(eye=(0.0, -12.5, 3.6), target=(0.0, 0.0, 2.9), span=(15.0, 8.0)),
     "three_quarter": CameraPose(eye=(-13.0, -11.0, 7.0), target=(-0.3, 0.0, 1.2),
                                 span=(14.0, 7.0)),
+    "three_quarter_close": CameraPose(eye=(-16.0, -8.5, 6.0), target=(-2.0, 0.0, 1.3),
+                                      span=(11.0, 6.2)),
 }
 
 
-def build_render_model(n_players: int) -> mujoco.MjModel:
-    """court.xml + ``n_players`` SIMPLE players (named ``p0_``, ``p1_``) + ``shuttle`` +
-    one target marker per player (``marker0``, ``marker1``), cameras posed by ``CAMERAS``."""
+def build_render_model(n_players: int, player: str = "simple") -> mujoco.MjModel:
+    """court.xml + ``n_players`` players of kind ``player`` (``"simple"`` or ``"humanlike"``,
+    named ``p0_``, ``p1_``) + ``shuttle``, cameras posed by ``CAMERAS``. SIMPLE players get one
+    target marker each (``marker0``, ``marker1``, discs on the floor); HUMAN-LIKE targets are
+    racket velocities, drawn per frame as arrows (``rallysim.render.players``), not bodies."""
     if n_players not in (1, 2):
         raise ValueError(f"n_players must be 1 or 2, got {n_players!r}")
+    check_player_kind(player)
     spec = mujoco.MjSpec.from_file(str(asset_path("court.xml")))
     # The player asset sets the simulator's 0.02 s step; matching it keeps attach() quiet
     # (nothing is ever stepped in this model).
     spec.option.timestep = 0.02
     _lighten(spec)
-    _add_players(spec, n_players)
+    _add_players(spec, n_players, player)
     _add_shuttle(spec)
-    for p in range(n_players):
-        _add_marker(spec, p)
+    if player == "simple":
+        for p in range(n_players):
+            _add_marker(spec, p)
     _pose_cameras(spec)
     return spec.compile()
+
+
+def check_player_kind(player: str) -> str:
+    if player not in PLAYER_KINDS:
+        raise ValueError(f"unknown player kind {player!r}; valid: "
+                         f"{', '.join(map(repr, PLAYER_KINDS))}")
+    return player
 
 
 def _lighten(spec: mujoco.MjSpec) -> None:
@@ -113,15 +134,18 @@ def _lighten(spec: mujoco.MjSpec) -> None:
                                 size=list(size), material=material, contype=0, conaffinity=0)
 
 
-def _add_players(spec: mujoco.MjSpec, n_players: int) -> None:
-    player_xml = asset_path("simple_player.xml").read_text()
+def _add_players(spec: mujoco.MjSpec, n_players: int, player: str = "simple") -> None:
+    """The simulator's own player asset, attached as the simulator attaches it (player 1
+    turned 180 degrees about z): one joint angle draws the same pose on either side. Sites
+    (HUMAN-LIKE's hit box ``face``) are in group 3, which MuJoCo does not draw by default."""
+    player_xml = asset_path(PLAYER_ASSETS[player]).read_text()
     for p in range(n_players):
         frame = spec.worldbody.add_frame()
         if p == 1:
             frame.quat = [0.0, 0.0, 0.0, 1.0]  # 180 degrees about z, as in the simulator
         spec.attach(mujoco.MjSpec.from_string(player_xml), prefix=f"p{p}_", frame=frame)
-    if n_players == 2:
-        spec.material("p1_base").rgba = PLAYER1_BASE_RGBA  # tell the two robots apart
+    if n_players == 2:  # tell the two players apart
+        spec.material(f"p1_{PLAYER1_MATERIAL[player]}").rgba = PLAYER1_BASE_RGBA
 
 
 def _add_shuttle(spec: mujoco.MjSpec) -> None:

@@ -4,24 +4,23 @@ from __future__ import annotations
 
 import math
 import weakref
-from collections.abc import Sequence
 
 import mujoco
 import numpy as np
 
 from rallysim.core.game import Game
-from rallysim.core.rules import FORWARD
 from rallysim.render.hud import HudFont, draw_text, font_size_for
-from rallysim.render.model import (
-    CAMERAS,
-    HIDDEN_Z,
-    MARKER_HALF_HEIGHT,
-    SHUTTLE_RGBA,
-    build_render_model,
+from rallysim.render.model import CAMERAS, SHUTTLE_RGBA, build_render_model
+from rallysim.render.players import (
+    PlayerRig,
+    TargetDepth,
+    TargetVelocity,
+    default_camera,
+    make_rig,
 )
 from rallysim.render.trail import TRAIL_LENGTH, ShuttleTrail
 
-TargetDepth = float | Sequence[float | None] | np.ndarray | None
+__all__ = ["SceneRenderer", "TargetDepth", "TargetVelocity"]
 
 
 class SceneRenderer:
@@ -31,14 +30,22 @@ class SceneRenderer:
     renderer's own single-world model and returns an (H, W, 3) uint8 RGB frame. The trail
     remembers the shuttle positions of the previous ``render`` calls: call ``reset_trail()``
     when a new episode or rally starts.
+
+    ``player`` is the kind of player the games have: ``"simple"`` (SIMPLE robots; targets are
+    landing depths, red discs on the floor) or ``"humanlike"`` (HUMAN-LIKE upper bodies, every
+    joint and the hips copied; targets are racket velocities, red arrows from the racket head).
+    ``camera`` defaults to ``"side"`` for SIMPLE and ``"three_quarter_close"`` for HUMAN-LIKE.
     """
 
     def __init__(self, n_players: int = 1, width: int = 640, height: int = 360,
-                 camera: str = "side", trail_length: int = TRAIL_LENGTH) -> None:
+                 camera: str | None = None, trail_length: int = TRAIL_LENGTH,
+                 player: str = "simple") -> None:
+        camera = default_camera(player) if camera is None else camera
         if camera not in CAMERAS:
             raise ValueError(f"unknown camera {camera!r}; valid: {', '.join(map(repr, CAMERAS))}")
         self.n_players, self.width, self.height, self.camera = n_players, width, height, camera
-        self.model = build_render_model(n_players)
+        self.player = player
+        self.model = build_render_model(n_players, player)
         self._fit_cameras(width / height)
         # the offscreen buffer court.xml asks for (1280x720) must hold the image
         buf = self.model.vis.global_
@@ -49,7 +56,9 @@ class SceneRenderer:
         # OSMesa context from a late __del__ fails with a noisy traceback.
         self._finalizer = weakref.finalize(self, self._renderer.close)
         self._camera_id = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_CAMERA, camera)
-        self._bind_ids()
+        self._shuttle_mocap = int(self.model.body_mocapid[
+            mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_BODY, "shuttle")])
+        self.rig: PlayerRig = make_rig(player, self.model, self.data, n_players)
         self.trail = ShuttleTrail(trail_length, SHUTTLE_RGBA[:3])
         self._font = HudFont(font_size_for(height))
         mujoco.mj_forward(self.model, self.data)
@@ -59,21 +68,6 @@ class SceneRenderer:
         for name, pose in CAMERAS.items():
             cam = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_CAMERA, name)
             self.model.cam_fovy[cam] = pose.fovy(aspect)
-
-    def _bind_ids(self) -> None:
-        m = self.model
-
-        def mocap(body: str) -> int:
-            return int(m.body_mocapid[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, body)])
-
-        def qpos(joint: str) -> int:
-            return int(m.jnt_qposadr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, joint)])
-
-        p = range(self.n_players)
-        self._base_mocap = np.array([mocap(f"p{i}_base") for i in p])
-        self._arm_qpos = np.array([qpos(f"p{i}_arm") for i in p])
-        self._marker_mocap = np.array([mocap(f"marker{i}") for i in p])
-        self._shuttle_mocap = mocap("shuttle")
 
     @property
     def renderer(self) -> mujoco.Renderer:
@@ -85,62 +79,65 @@ class SceneRenderer:
         """Forget the shuttle's past positions (call at the start of each episode)."""
         self.trail.reset()
 
-    def set_state(self, game: Game, env_index: int = 0, target_depth: TargetDepth = None,
-                  ) -> None:
+    def set_state(self, game: Game, env_index: int = 0, target_depth: TargetDepth = None, *,
+                  target_velocity: TargetVelocity = None) -> None:
         """Copy environment ``env_index`` of ``game`` into this renderer's world and record the
-        shuttle position in the trail."""
+        shuttle position in the trail. Targets as in ``render``."""
         if game.n_players != self.n_players:
             raise ValueError(f"renderer built for {self.n_players} player(s), game has "
                              f"{game.n_players}")
-        b, d = game.bodies, self.data
+        rig = self.rig
+        rig.check(game)
         e = int(env_index)
-        base = d.mocap_pos[self._base_mocap]
-        base[:, 0] = b.forward[e] * b.base_x[e]  # own frame -> world
-        base[:, 1] = 0.0
-        base[:, 2] = b.base_z
-        d.mocap_pos[self._base_mocap] = base
-        # The same hinge angle means the same swing for both players: player 1's frame is
-        # rotated in the model, exactly as in the simulator's model.
-        d.qpos[self._arm_qpos] = b.theta[e]
+        rig.copy_state(game, e)
         shuttle = game.shuttle.pos[e]
-        d.mocap_pos[self._shuttle_mocap] = shuttle
-        self._place_markers(target_depth)
+        self.data.mocap_pos[self._shuttle_mocap] = shuttle
+        rig.place_targets(self._target(target_depth, target_velocity))
         self.trail.push(shuttle)
         # Positions only: mocap bodies and joints need kinematics; the cameras and the light
         # (mj_camlight) are fixed but computed there too. No dynamics are needed to draw.
-        mujoco.mj_kinematics(self.model, d)
-        mujoco.mj_camlight(self.model, d)
+        mujoco.mj_kinematics(self.model, self.data)
+        mujoco.mj_camlight(self.model, self.data)
 
-    def _place_markers(self, target_depth: TargetDepth) -> None:
-        depths = _per_player(target_depth, self.n_players)
-        for p, depth in enumerate(depths):
-            pos = self.data.mocap_pos[self._marker_mocap[p]]
-            if depth is None or not math.isfinite(depth):
-                pos[:] = (0.0, 0.0, HIDDEN_Z)
-            else:
-                # a depth beyond the net in player p's own frame
-                pos[:] = (FORWARD[p] * depth, 0.0, MARKER_HALF_HEIGHT + 0.002)
+    def _target(self, target_depth: TargetDepth, target_velocity: TargetVelocity) -> object:
+        """The target argument this kind of player takes; the other one must be None."""
+        given = {"target_depth": target_depth, "target_velocity": target_velocity}
+        value = given.pop(self.rig.target_keyword)
+        for name, other in given.items():
+            if other is not None:
+                raise ValueError(f"{self.player} players take {self.rig.target_keyword}, "
+                                 f"not {name}")
+        return value
 
     # -- drawing ---------------------------------------------------------------------------
     def render(self, game: Game, env_index: int = 0, target_depth: TargetDepth = None,
-               hud_text: str | None = None) -> np.ndarray:
+               hud_text: str | None = None, *, target_velocity: TargetVelocity = None,
+               ) -> np.ndarray:
         """(H, W, 3) uint8 RGB frame of environment ``env_index`` of ``game``.
 
-        ``target_depth``: None (no marker), one depth in metres beyond the net for player 0,
-        or one per player (None or NaN hides that player's marker). ``hud_text`` is written in
-        the top-left corner (newlines allowed)."""
-        self.set_state(game, env_index, target_depth)
+        SIMPLE: ``target_depth`` is None (no marker), one depth in metres beyond the net for
+        player 0, or one per player (None or NaN hides that player's marker). HUMAN-LIKE:
+        ``target_velocity`` is None (no arrow), one own-frame racket velocity (3,) in m/s for
+        player 0, or one per player (None or NaN hides one). ``hud_text`` is written in the
+        top-left corner (newlines allowed)."""
+        self.set_state(game, env_index, target_depth, target_velocity=target_velocity)
         return self.render_current(hud_text)
 
     def render_current(self, hud_text: str | None = None) -> np.ndarray:
         """A frame of the state last set (``set_state`` or ``render``)."""
         r = self._renderer
         r.update_scene(self.data, self._camera_id)
+        self.rig.draw(r.scene)
         self.trail.draw(r.scene)
         frame = r.render()
         if hud_text:
             draw_text(frame, hud_text, self._font)
         return frame
+
+    def draw_markers(self, scene: mujoco.MjvScene) -> int:
+        """Append the targets that are not bodies of the model (HUMAN-LIKE's arrows) to
+        another ``scene``, e.g. a viewer's ``user_scn``; returns the geoms added."""
+        return self.rig.draw(scene)
 
     # -- geometry --------------------------------------------------------------------------
     def project(self, points: np.ndarray) -> np.ndarray:
@@ -171,13 +168,3 @@ class SceneRenderer:
     def __exit__(self, *exc: object) -> None:
         self.close()
 
-
-def _per_player(target_depth: TargetDepth, n_players: int) -> list[float | None]:
-    if target_depth is None:
-        return [None] * n_players
-    if np.ndim(target_depth) == 0:
-        return [float(target_depth)] + [None] * (n_players - 1)  # type: ignore[arg-type]
-    depths = [None if d is None else float(d) for d in target_depth]  # type: ignore[union-attr]
-    if len(depths) != n_players:
-        raise ValueError(f"expected {n_players} target depths, got {len(depths)}")
-    return depths
