@@ -1,4 +1,4 @@
-"""The ``rallysim`` command line: ``demo``, ``render``, ``play``."""
+"""The ``rallysim`` command line: ``demo``, ``train``, ``render``, ``play``."""
 
 from __future__ import annotations
 
@@ -94,6 +94,28 @@ def _play(args: argparse.Namespace) -> int:
     return 0
 
 
+def _train(args: argparse.Namespace) -> int:
+    """Train one stage (low, high, mono) with Stable-Baselines3 PPO; resumable."""
+    try:
+        from rallysim.train.config import load_config, parse_overrides
+        from rallysim.train.runner import train_stage
+    except ImportError as err:
+        print(f"training needs the train extra: pip install 'rallysim[train]' ({err})",
+              file=sys.stderr)
+        return 2
+    overrides = parse_overrides(args.set)
+    for key in ("decisions", "seed", "shuttle", "low_policy"):
+        value = getattr(args, key, None)
+        if value is not None:
+            overrides[key] = value
+    config = load_config(args.stage, args.config, overrides)
+    out = Path(args.out or f"runs/{args.stage}_seed{config.seed}")
+    curve = train_stage(config, out, resume=not args.restart, progress=not args.quiet)
+    print(f"{args.stage}: {curve['steps']:,} steps in {curve['train_wall_s']:.0f} s "
+          f"({curve['steps_per_s']:,.0f}/s); policy written to {out / 'policy.safetensors'}")
+    return 0
+
+
 def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--shuttle", default="paper", choices=("paper", "paper-alg1", "aero"))
     p.add_argument("--seed", type=int, default=0)
@@ -110,6 +132,21 @@ def build_parser() -> argparse.ArgumentParser:
                       help="scripted, random, pretrained or a policy path prefix")
     _common(demo)
     demo.set_defaults(run=_demo)
+
+    train = sub.add_parser("train", help="train a stage with PPO (resumes an interrupted run)")
+    train.add_argument("stage", choices=("low", "high", "mono"))
+    train.add_argument("--config", help="a YAML file of settings over the stage's defaults")
+    train.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",
+                       help="settings over the config, e.g. n_envs=128 net_arch=[64,64]")
+    train.add_argument("--decisions", type=int, help="budget in steps (turns for high)")
+    train.add_argument("--seed", type=int)
+    train.add_argument("--shuttle", choices=("paper", "paper-alg1", "aero"))
+    train.add_argument("--low-policy", dest="low_policy",
+                       help="high stage: frozen low level (path prefix, pretrained, scripted)")
+    train.add_argument("--out", help="run folder (default runs/STAGE_seedN)")
+    train.add_argument("--restart", action="store_true", help="ignore existing checkpoints")
+    train.add_argument("--quiet", action="store_true", help="no progress bar")
+    train.set_defaults(run=_train)
 
     render = sub.add_parser("render", help="write an MP4, a GIF and stills of episodes")
     render.add_argument("--env", choices=("low", "rally"), default="rally")
@@ -142,7 +179,11 @@ def main(argv: list[str] | None = None) -> int:
     if getattr(args, "episodes", 1) < 1 or getattr(args, "stills", 1) < 1:
         print("--episodes and --stills must be >= 1", file=sys.stderr)
         return 2
-    return args.run(args)
+    try:
+        return args.run(args)
+    except (ValueError, FileNotFoundError) as err:  # bad input: say what, no traceback
+        print(f"rallysim {args.command}: error: {err}", file=sys.stderr)
+        return 2
 
 
 if __name__ == "__main__":

@@ -111,6 +111,21 @@ def _agent_info(info: dict, env: int, player: int) -> dict[str, Any]:
     return out
 
 
+def _slot_info(info: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """Rally event arrays (N, ...) and (N, 2, ...) -> one row per slot (2N, ...): a player's
+    own events, the rally's shared ones repeated, its own score and the opponent's."""
+    out = {}
+    for key, value in info.items():
+        if key in PER_PLAYER_INFO:
+            out[key] = value.reshape(-1, *value.shape[2:])
+        elif key in SCORE_INFO:
+            out[key] = value.reshape(-1)
+            out["opponent_" + key] = value[:, ::-1].reshape(-1)
+        else:
+            out[key] = np.repeat(value, 2, axis=0)
+    return out
+
+
 def _ignore_options(options: dict | None) -> None:
     """PettingZoo's API test requires envs to accept any reset options; ours take none, so
     say so instead of failing."""
@@ -202,7 +217,8 @@ def parallel_env(**kwargs: Any) -> SimpleRallyParallelEnv:
 
 class SimpleRallyVectorEnv(NativeVectorEnv):
     """N rallies as 2N Gymnasium slots, slot 2e + p being player p of rally e, for trainers
-    that share one policy across players. Rewards, ends and autoreset as the parallel env."""
+    that share one policy across players. Rewards, ends and autoreset as the parallel env;
+    ``info`` arrays have one row per slot (the player's own events and score)."""
 
     metadata = {"render_modes": RENDER_MODES, "render_fps": 10, "autoreset_mode": NEXT_STEP}
     slots_per_unit = 2
@@ -232,7 +248,7 @@ class SimpleRallyVectorEnv(NativeVectorEnv):
     def _step_units(self, actions):
         a = validate_actions(actions, (self.num_envs, ACTION_SIZE))
         rewards, term, trunc, info = self.task.step(a.reshape(self.num_units, 2, ACTION_SIZE))
-        return rewards.reshape(-1), term, trunc, info
+        return rewards.reshape(-1), term, trunc, _slot_info(info)
 
     def _observe(self) -> np.ndarray:
         return self.task.observe().reshape(self.num_envs, RALLY_OBS_SIZE)
@@ -344,6 +360,7 @@ class SimpleRallyTurnVectorEnv(NativeVectorEnv):
         self._view = EnvView(render_mode, n_players=2)
         self._views = [self._view]
         self.turns = TurnTask(self.num_units, low_level, cfg, seed)
+        self.decisions_simulated = 0  # low-level decisions run inside all turns so far
         self.single_observation_space, self.single_action_space = _obs_space(), _goal_space()
         self.observation_space = spaces.Box(-1.0, 1.0, (self.num_envs, RALLY_OBS_SIZE),
                                             np.float32)
@@ -368,6 +385,7 @@ class SimpleRallyTurnVectorEnv(NativeVectorEnv):
         out = self.turns.step(np.nan_to_num(goals, nan=4.0) if len(self._pending) else goals,
                               playing)
         acted = out["acted"]
+        self.decisions_simulated += int(out["decisions"].sum())
         reward = out["reward"][np.arange(self.num_envs), acted]
         info = {"decisions": out["decisions"], "rally_length": out["rally_length"],
                 "player": acted}

@@ -104,6 +104,8 @@ class NativeVectorEnv(VectorEnv):
         if seed is not None:
             seeds = ([seed + i for i in range(self.num_units)] if np.isscalar(seed)
                      else list(seed))
+            if len(seeds) == self.num_envs != self.num_units:  # one per slot: a unit's first
+                seeds = seeds[:: self.slots_per_unit]
             if len(seeds) != self.num_units:
                 raise ValueError(f"expected {self.num_units} seeds, got {len(seeds)}")
             self._seed_units(seeds)

@@ -1,0 +1,129 @@
+"""Training configuration: one dataclass, defaults per stage in ``configs/{stage}.yaml``.
+
+Precedence: the stage's packaged YAML < a user's YAML (``--config``) < ``--set key=value``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, fields, replace
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+STAGES = ("low", "high", "mono")
+CONFIG_DIR = Path(__file__).parent / "configs"
+
+
+@dataclass(frozen=True)
+class TrainConfig:
+    """Everything that shapes one PPO training run of one stage."""
+
+    stage: str = "low"
+    shuttle: str = "paper"
+    decisions: int = 3_000_000  # budget, in SB3 steps (decisions; turns for the high level)
+    seed: int = 0
+    # rollout and update (SB3 PPO)
+    n_envs: int = 64
+    n_steps: int = 64
+    batch_size: int = 1024
+    n_epochs: int = 10
+    target_kl: float | None = None
+    learning_rate: float = 3e-4
+    gamma: float = 0.99
+    gae_lambda: float = 0.95
+    clip_range: float = 0.2
+    ent_coef: float = 0.0
+    vf_coef: float = 0.5
+    max_grad_norm: float = 0.5
+    # networks (SPEC §8: tanh MLP 64x64 actor and critic, log-std initialised at -0.5)
+    net_arch: tuple[int, ...] = (64, 64)
+    activation: str = "tanh"
+    log_std_init: float = -0.5
+    # machinery
+    torch_threads: int = 1
+    eval_every: int = 500_000  # SB3 steps between evaluations (0: only at the end)
+    eval_episodes: int = 500  # episodes (low) or rallies (high, mono) per evaluation
+    eval_seed: int = 12345
+    checkpoint_every: int = 250_000
+    low_policy: str = "pretrained"  # high stage: the frozen low level (path prefix or pretrained)
+
+    def __post_init__(self) -> None:
+        if self.stage not in STAGES:
+            raise ValueError(f"unknown stage {self.stage!r}; valid: {', '.join(STAGES)}")
+        if self.activation not in ("tanh", "relu"):
+            raise ValueError(f"activation must be 'tanh' or 'relu', got {self.activation!r}")
+        for name in ("decisions", "n_envs", "n_steps", "batch_size", "n_epochs",
+                     "eval_episodes", "checkpoint_every"):
+            if getattr(self, name) < 1:
+                raise ValueError(f"{name} must be >= 1, got {getattr(self, name)}")
+        if self.stage == "mono" and self.n_envs % 2:
+            raise ValueError("the mono stage needs an even n_envs (two players per rally)")
+
+    def network(self) -> dict[str, Any]:
+        """What a checkpoint must share with the run that resumes it."""
+        return {"stage": self.stage, "net_arch": list(self.net_arch),
+                "activation": self.activation, "shuttle": self.shuttle}
+
+    def ppo_kwargs(self) -> dict[str, Any]:
+        import torch
+
+        activation = {"tanh": torch.nn.Tanh, "relu": torch.nn.ReLU}[self.activation]
+        return {
+            "n_steps": self.n_steps, "batch_size": self.batch_size, "n_epochs": self.n_epochs,
+            "target_kl": self.target_kl, "learning_rate": self.learning_rate,
+            "gamma": self.gamma, "gae_lambda": self.gae_lambda, "clip_range": self.clip_range,
+            "ent_coef": self.ent_coef, "vf_coef": self.vf_coef,
+            "max_grad_norm": self.max_grad_norm,
+            "policy_kwargs": {"net_arch": {"pi": list(self.net_arch), "vf": list(self.net_arch)},
+                              "activation_fn": activation, "log_std_init": self.log_std_init},
+        }
+
+    def to_dict(self) -> dict[str, Any]:
+        d = asdict(self)
+        d["net_arch"] = list(self.net_arch)
+        return d
+
+
+def _coerce(key: str, value: Any) -> Any:
+    if key == "net_arch":
+        return tuple(int(v) for v in value)
+    return value
+
+
+def load_config(stage: str, path: str | Path | None = None,
+                overrides: dict[str, Any] | None = None) -> TrainConfig:
+    """The stage's packaged defaults, updated by the YAML at ``path`` and ``overrides``."""
+    if stage not in STAGES:
+        raise ValueError(f"unknown stage {stage!r}; valid: {', '.join(STAGES)}")
+    valid = {f.name for f in fields(TrainConfig)}
+    values: dict[str, Any] = {"stage": stage}
+    sources = [CONFIG_DIR / f"{stage}.yaml"] + ([Path(path)] if path else [])
+    for source in sources:
+        try:
+            data = yaml.safe_load(Path(source).read_text()) or {}
+        except FileNotFoundError:
+            raise FileNotFoundError(f"config file {source} does not exist") from None
+        except yaml.YAMLError as err:
+            raise ValueError(f"config file {source} is not valid YAML: {err}") from None
+        if not isinstance(data, dict):
+            raise ValueError(f"config file {source} must hold a mapping of settings")
+        values.update(data)
+    values.update(overrides or {})
+    unknown = sorted(set(values) - valid)
+    if unknown:
+        raise ValueError(f"unknown setting(s) {unknown}; valid: {sorted(valid)}")
+    if values.get("stage") != stage:
+        raise ValueError(f"config is for stage {values.get('stage')!r}, not {stage!r}")
+    return replace(TrainConfig(), **{k: _coerce(k, v) for k, v in values.items()})
+
+
+def parse_overrides(items: list[str]) -> dict[str, Any]:
+    """``["n_envs=128", "net_arch=[64, 64]"]`` -> values parsed as YAML scalars or lists."""
+    out: dict[str, Any] = {}
+    for item in items:
+        key, sep, value = item.partition("=")
+        if not sep or not key:
+            raise ValueError(f"--set takes KEY=VALUE, got {item!r}")
+        out[key.strip()] = yaml.safe_load(value)
+    return out

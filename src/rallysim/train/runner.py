@@ -1,0 +1,183 @@
+"""Run one training stage with Stable-Baselines3 PPO: ``train_stage(config, out_dir)``.
+
+What a run leaves in ``out_dir``:
+
+| file | what |
+|---|---|
+| ``config.yaml`` | the resolved configuration |
+| ``checkpoints/step_*.{safetensors,json}`` | resumable state every ``checkpoint_every`` steps |
+| ``policy.{safetensors,json}`` | the final deterministic actor (``rallysim.policies.mlp``) |
+| ``curve.json`` | evaluations and per-rollout training returns, with wall times |
+| ``tb/`` | TensorBoard logs (``tensorboard --logdir out_dir/tb``) |
+
+A run started again on the same ``out_dir`` resumes from its newest checkpoint (after any
+interruption, ``kill -9`` included), losing at most one checkpoint interval; a checkpoint made
+with another stage or network is refused with a clear error.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from rallysim.train import checkpoint as ckpt
+from rallysim.train import stages
+from rallysim.train.config import TrainConfig
+
+
+class _Monitor:
+    """SB3 callback: progress bar with ETA, evaluations, checkpoints, the learning curve."""
+
+    def __init__(self, config: TrainConfig, out: Path, curve: dict[str, Any],
+                 progress: bool) -> None:
+        from stable_baselines3.common.callbacks import BaseCallback
+
+        monitor = self
+
+        class Callback(BaseCallback):
+            def _on_step(self) -> bool:
+                return True
+
+            def _on_rollout_end(self) -> None:
+                monitor.rollout_end(self.model)
+
+        self.callback = Callback()
+        self.config, self.out, self.curve, self.progress = config, out, curve, progress
+        self.bar: Any = None
+        self.eval_wall = 0.0
+        self.start = time.perf_counter() - curve.get("train_wall_s", 0.0)
+        done = curve.get("decisions", 0)
+        every = config.eval_every or math.inf
+        self.next_eval = (done // every + 1) * every if every < math.inf else math.inf
+        self.next_ckpt = (done // config.checkpoint_every + 1) * config.checkpoint_every
+
+    def open_bar(self, done: int) -> None:
+        if self.progress:
+            from tqdm import tqdm
+
+            self.bar = tqdm(total=self.config.decisions, initial=done, unit="step",
+                            unit_scale=True, desc=f"train {self.config.stage}", file=sys.stderr,
+                            dynamic_ncols=True, smoothing=0.1)
+
+    def train_wall(self) -> float:
+        return time.perf_counter() - self.start - self.eval_wall
+
+    def rollout_end(self, model: Any) -> None:
+        steps = int(model.num_timesteps)
+        buf = model.ep_info_buffer
+        ep_rew = float(np.mean([e["r"] for e in buf])) if buf else math.nan
+        self.curve["rollouts"].append({"steps": steps, "wall_s": round(self.train_wall(), 2),
+                                       "ep_rew_mean": ep_rew})
+        if self.bar is not None:
+            self.bar.update(steps - self.bar.n)
+            self.bar.set_postfix_str(f"ep_rew {ep_rew:.3f}", refresh=False)
+        if steps >= self.next_eval:
+            self.evaluate(model)
+            while self.next_eval <= steps:
+                self.next_eval += self.config.eval_every
+        if steps >= self.next_ckpt:
+            self.save(model)
+            while self.next_ckpt <= steps:
+                self.next_ckpt += self.config.checkpoint_every
+
+    def evaluate(self, model: Any) -> dict[str, Any]:
+        t = time.perf_counter()
+        act = lambda obs: model.predict(obs, deterministic=True)[0]  # noqa: E731
+        result = stages.evaluate(self.config, act)
+        row = {"steps": int(model.num_timesteps), "wall_s": round(self.train_wall(), 2),
+               **result}
+        self.eval_wall += time.perf_counter() - t
+        self.curve["evals"].append(row)
+        for key, value in result.items():
+            model.logger.record(f"eval/{key}", value)
+        message = f"[{self.config.stage}] {row['steps']:>10,} steps: " + stages.headline(
+            self.config, result)
+        if self.bar is not None:
+            self.bar.write(message)
+        elif self.progress:
+            print(message, file=sys.stderr, flush=True)
+        return row
+
+    def save(self, model: Any) -> None:
+        self.curve["decisions"] = int(model.num_timesteps)
+        self.curve["train_wall_s"] = round(self.train_wall(), 2)
+        ckpt.save_checkpoint(self.out, model, {
+            "stage": self.config.stage, "network": self.config.network(),
+            "config": self.config.to_dict(), "curve": self.curve})
+
+
+def build_model(config: TrainConfig, out: Path) -> Any:
+    import torch
+    from stable_baselines3 import PPO
+
+    torch.set_num_threads(config.torch_threads)
+    env = stages.make_env(config)
+    return PPO("MlpPolicy", env, seed=config.seed, device="cpu", verbose=0,
+               tensorboard_log=str(out / "tb"), **config.ppo_kwargs())
+
+
+def train_stage(config: TrainConfig, out_dir: str | Path, resume: bool = True,
+                progress: bool = True) -> dict[str, Any]:
+    """Train ``config.stage`` into ``out_dir`` (resuming there if it holds a checkpoint) and
+    return the learning curve with the final evaluation."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    model = build_model(config, out)
+    curve: dict[str, Any] = {"stage": config.stage, "evals": [], "rollouts": []}
+    latest = ckpt.latest_checkpoint(out) if resume else None
+    if latest is not None:
+        doc, tensors = ckpt.read_checkpoint(latest, expect={"stage": config.stage,
+                                                            "network": config.network()})
+        ckpt.restore(model, doc, tensors)
+        curve = doc["curve"]
+        if progress:
+            print(f"resuming {config.stage} from {latest.name} "
+                  f"({model.num_timesteps:,} steps done)", file=sys.stderr, flush=True)
+    (out / "config.yaml").write_text(yaml.safe_dump(config.to_dict(), sort_keys=False))
+    monitor = _Monitor(config, out, curve, progress)
+    remaining = config.decisions - int(model.num_timesteps)
+    monitor.open_bar(int(model.num_timesteps))
+    try:
+        if remaining > 0:
+            model.learn(total_timesteps=remaining, callback=monitor.callback,
+                        reset_num_timesteps=latest is None, tb_log_name=config.stage)
+    finally:
+        if monitor.bar is not None:
+            monitor.bar.close()
+    evals = curve["evals"]
+    final = (evals[-1] if evals and evals[-1]["steps"] == model.num_timesteps
+             else monitor.evaluate(model))
+    monitor.save(model)
+    curve["final"] = final
+    curve["steps"] = int(model.num_timesteps)
+    curve["train_wall_s"] = round(monitor.train_wall(), 2)
+    curve["steps_per_s"] = round(curve["steps"] / max(curve["train_wall_s"], 1e-9), 1)
+    curve["decisions_simulated"] = (stages.decisions_simulated(model.get_env())
+                                    if config.stage == "high" else curve["steps"])
+    export_policy(model, config, out / "policy", final)
+    (out / "curve.json").write_text(json.dumps(curve, indent=1))
+    return curve
+
+
+def export_policy(model: Any, config: TrainConfig, prefix: Path, final: dict[str, Any]) -> None:
+    """The deterministic actor as safetensors + JSON, with its weights' SHA-256."""
+    from rallysim.policies.mlp import policy_paths, sha256_file
+    from rallysim.train.export import save_policy
+
+    save_policy(model, prefix, env_id=stages.EXPORT_ENV[config.stage],
+                metadata={"stage": config.stage, "seed": config.seed,
+                          "steps": int(model.num_timesteps), "final": final,
+                          "config": config.to_dict()})
+    weights, doc_path = policy_paths(prefix)
+    doc = json.loads(doc_path.read_text())
+    doc["weights_sha256"] = sha256_file(weights)
+    if config.stage == "high":
+        doc["goal_mapping"] = "goal_m = 4 + 2 * clip(action, -1, 1)"
+    doc_path.write_text(json.dumps(doc, indent=1))
