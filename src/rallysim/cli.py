@@ -1,4 +1,5 @@
-"""The ``rallysim`` command line: ``demo``, ``train``, ``render``, ``play``."""
+"""The ``rallysim`` command line: ``demo``, ``train``, ``reproduce``, ``evaluate``, ``render``,
+``play``."""
 
 from __future__ import annotations
 
@@ -116,6 +117,38 @@ def _train(args: argparse.Namespace) -> int:
     return 0
 
 
+def _reproduce(args: argparse.Namespace) -> int:
+    """Train every stage and baseline on the chosen budget and write the Table VII report."""
+    try:
+        from rallysim.train.reproduce import BUDGETS, run_reproduce
+    except ImportError as err:
+        print(f"reproduce needs the train extra: pip install 'rallysim[train]' ({err})",
+              file=sys.stderr)
+        return 2
+    results = run_reproduce(BUDGETS[args.budget], Path(args.out), workers=args.workers)
+    print((Path(args.out) / "report.md").read_text())
+    return 0 if results else 1
+
+
+def _evaluate(args: argparse.Namespace) -> int:
+    """Evaluate HRL, Random High-level and Monolithic (pretrained or given policies)."""
+    import json
+
+    from rallysim.eval.compare import evaluate_methods
+
+    results = evaluate_methods(args.low, args.high, args.mono, rallies=args.rallies,
+                               seeds=args.seeds, shuttle=args.shuttle)
+    for method, s in results["methods"].items():
+        print(f"{method:18s} mean rally {s['mean']['value']:6.2f} "
+              f"[{s['mean']['low']:.2f}, {s['mean']['high']:.2f}]  median "
+              f"{s['median']['value']:5.1f}  reaching 50: {s['capped']}/{s['n_rallies']}")
+    if args.json:
+        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
+        Path(args.json).write_text(json.dumps(results, indent=1))
+        print(f"every number written to {args.json}")
+    return 0
+
+
 def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--shuttle", default="paper", choices=("paper", "paper-alg1", "aero"))
     p.add_argument("--seed", type=int, default=0)
@@ -147,6 +180,25 @@ def build_parser() -> argparse.ArgumentParser:
     train.add_argument("--restart", action="store_true", help="ignore existing checkpoints")
     train.add_argument("--quiet", action="store_true", help="no progress bar")
     train.set_defaults(run=_train)
+
+    repro = sub.add_parser("reproduce", help="the whole pipeline and the paper's Table VII")
+    repro.add_argument("--budget", choices=("default", "quick", "smoke"), default="default",
+                       help="default: ~15 min on 2 cores; quick: a look in ~4 min")
+    repro.add_argument("--out", default="results")
+    repro.add_argument("--workers", type=int, default=2, help="seeds trained at once")
+    repro.set_defaults(run=_reproduce)
+
+    ev = sub.add_parser("evaluate", help="rally statistics of HRL, Random High-level, Monolithic")
+    ev.add_argument("--pretrained", action="store_true",
+                    help="the shipped policies (the default for any policy not given)")
+    ev.add_argument("--low", default="pretrained", help="low level: path prefix or pretrained")
+    ev.add_argument("--high", default="pretrained", help="high level: path prefix or pretrained")
+    ev.add_argument("--mono", default="pretrained", help="Monolithic: path prefix or pretrained")
+    ev.add_argument("--rallies", type=int, default=100, help="rallies per seed and method")
+    ev.add_argument("--seeds", type=int, default=3, help="evaluation seeds")
+    ev.add_argument("--json", help="write every number here")
+    ev.add_argument("--shuttle", default="paper", choices=("paper", "paper-alg1", "aero"))
+    ev.set_defaults(run=_evaluate)
 
     render = sub.add_parser("render", help="write an MP4, a GIF and stills of episodes")
     render.add_argument("--env", choices=("low", "rally"), default="rally")

@@ -30,6 +30,7 @@ class TrainConfig:
     n_epochs: int = 10
     target_kl: float | None = None
     learning_rate: float = 3e-4
+    anneal_lr: bool = False  # decay the learning rate linearly to 0 over the budget
     gamma: float = 0.99
     gae_lambda: float = 0.95
     clip_range: float = 0.2
@@ -69,9 +70,11 @@ class TrainConfig:
         import torch
 
         activation = {"tanh": torch.nn.Tanh, "relu": torch.nn.ReLU}[self.activation]
+        lr0 = self.learning_rate
+        learning_rate: Any = (lambda remaining: lr0 * remaining) if self.anneal_lr else lr0
         return {
             "n_steps": self.n_steps, "batch_size": self.batch_size, "n_epochs": self.n_epochs,
-            "target_kl": self.target_kl, "learning_rate": self.learning_rate,
+            "target_kl": self.target_kl, "learning_rate": learning_rate,
             "gamma": self.gamma, "gae_lambda": self.gae_lambda, "clip_range": self.clip_range,
             "ent_coef": self.ent_coef, "vf_coef": self.vf_coef,
             "max_grad_norm": self.max_grad_norm,
