@@ -202,3 +202,40 @@ def test_scripted_controller_returns_most_serves_near_target():
     rnd = np.random.default_rng(0)
     flail = evaluate_return(lambda o: rnd.uniform(-1, 1, (len(o), 3)), env, 256, seed=0)
     assert flail.hit_rate < 0.3 and flail.mean_reward < 0.3  # flailing hits one serve in five
+
+
+def test_keep_bodies_carries_the_player_into_the_next_episode():
+    env = SimpleReturnVectorEnv(2, max_decisions=3, keep_bodies=True, autoreset_mode="same_step")
+    env.reset(seed=0)
+    game = env.task.game
+    for _ in range(3):
+        env.step(np.array([[0.5, 1.0, 1.0], [0.5, 1.0, 1.0]]))
+    # the truncated episodes restarted with the bodies as they were: base walked toward the net
+    assert np.all(game.bodies.base_x[:, 0] > -6.5 + 1.4)
+    assert env.task.elapsed.tolist() == [0, 0]
+    fresh = SimpleReturnVectorEnv(2, max_decisions=3, autoreset_mode="same_step")
+    fresh.reset(seed=0)
+    start = fresh.task.game.bodies.base_x[:, 0].copy()
+    for _ in range(3):
+        fresh.step(np.array([[0.5, 1.0, 1.0], [0.5, 1.0, 1.0]]))
+    assert not np.allclose(fresh.task.game.bodies.base_x[:, 0], start + 1.5)  # drawn anew
+
+
+def test_incoming_rally_shots_come_from_the_recorded_bank():
+    from rallysim.assets import load_shot_bank
+
+    bank = load_shot_bank()
+    assert bank.shape == (4096, 6) and np.all(bank[:, 3] < 0)  # all fly toward player 0
+    speed = np.linalg.norm(bank[:, 3:], axis=1)
+    assert speed.min() > 12 and speed.max() <= 2 * 7 * 1.06 + 1e-6  # SIMPLE shots
+    env = SimpleReturnVectorEnv(64, incoming="rally")
+    env.reset(seed=0)
+    sh = env.task.game.shuttle
+    rows = [np.flatnonzero(np.all(np.isclose(bank[:, :3], p), axis=1)) for p in sh.pos]
+    assert all(len(r) == 1 for r in rows)
+    mixed = SimpleReturnVectorEnv(256, incoming="mixed")
+    mixed.reset(seed=0)
+    from_bank = np.isin(mixed.task.game.shuttle.pos[:, 0], bank[:, 0])
+    assert 0.35 < from_bank.mean() < 0.65
+    with pytest.raises(ValueError, match="'rally'"):
+        SimpleReturnVectorEnv(2, incoming="lob")

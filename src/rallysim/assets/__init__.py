@@ -10,3 +10,11 @@ def asset_path(name: str) -> Path:
     if not path.is_file():
         raise FileNotFoundError(f"no asset {name!r} in {path.parent}")
     return path
+
+
+def load_shot_bank():  # -> numpy.ndarray (n, 6)
+    """(n, 6) recorded rally shots (position, velocity; world frame, flying toward player 0),
+    from ``benchmarks/make_shot_bank.py``; a plain .npy read without pickle."""
+    import numpy as np
+
+    return np.load(asset_path("data/rally_shots.npy"), allow_pickle=False)

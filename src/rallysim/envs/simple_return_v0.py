@@ -40,6 +40,8 @@ Terminates when the shuttle's centre drops below z = 0; truncates after 1000 dec
 | ``shuttle`` | ``"paper"`` | flight model: ``"paper"``, ``"paper-alg1"`` or ``"aero"`` |
 | ``target_depth_range`` | ``(2.0, 6.0)`` | goals are drawn uniformly from this range |
 | ``max_decisions`` | ``1000`` | truncation |
+| ``keep_bodies`` | ``False`` | ``True``: like the original builds, a new episode starts with the player where the last one left it (the first from a random start); reset options still place it |
+| ``incoming`` | ``"serve"`` | what comes over: the machine serve (the paper); ``"rally"``: a shot drawn from 4,096 recorded rally shots (scripted players aiming at 2-6 m); ``"mixed"``: either, half the time each |
 
 ``reset(options=...)`` accepts ``target_depth`` (metres, in [2, 6]), ``base_x`` (metres, in
 [-6.5, -1]) and ``arm_angle`` (radians, in [-85, 85] deg); the vector env takes a scalar or one
@@ -64,6 +66,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from rallysim.assets import load_shot_bank
 from rallysim.core.game import Game
 from rallysim.envs.rendering import RENDER_MODES, EnvView
 from rallysim.envs.simple_obs import (
@@ -83,6 +86,7 @@ SHAPING_GOOD = 0.001
 SHAPING_BAD = -0.005
 R_DIST_RATE = 0.5
 RESET_OPTIONS = ("target_depth", "base_x", "arm_angle")
+INCOMING = ("serve", "mixed", "rally")
 LANDING_KEYS = ("landing_point", "landing_depth", "landing_error", "landed_in")
 
 
@@ -91,7 +95,15 @@ class ReturnTask:
 
     def __init__(self, num_envs: int, shuttle: str = "paper", seed: int | None = None,
                  target_depth_range: tuple[float, float] = TARGET_DEPTH_RANGE,
-                 max_decisions: int = MAX_DECISIONS) -> None:
+                 max_decisions: int = MAX_DECISIONS, incoming: str = "serve",
+                 keep_bodies: bool = False) -> None:
+        if incoming not in INCOMING:
+            raise ValueError(f"unknown incoming {incoming!r}; valid: "
+                             f"{', '.join(map(repr, INCOMING))}")
+        self.incoming = incoming
+        self.keep_bodies = keep_bodies
+        self._started = np.zeros(num_envs, bool)
+        self._bank: np.ndarray | None = None
         lo, hi = map(float, target_depth_range)
         if not TARGET_DEPTH_RANGE[0] <= lo <= hi <= TARGET_DEPTH_RANGE[1]:
             raise ValueError(f"target_depth_range must lie within {TARGET_DEPTH_RANGE}, got "
@@ -115,10 +127,38 @@ class ReturnTask:
         limit = b.limit
         theta = _option(opts, "arm_angle", len(envs), (-limit, limit),
                         lambda: np.array([r.uniform(-limit, limit) for r in rngs]))
+        carry = envs[self._started[envs]] if self.keep_bodies and not opts else envs[:0]
+        if len(carry):  # the original builds: robots stay where the last episode left them
+            j = np.searchsorted(envs, carry) if np.all(np.diff(envs) > 0) else np.array(
+                [np.flatnonzero(envs == c)[0] for c in carry])
+            base_x[j], theta[j] = b.base_x[carry, 0], b.theta[carry, 0]
+            omega = b.omega[carry, 0].copy()
         self.game.reset(envs, receiver=0, base_x=base_x[:, None], theta=theta[:, None])
+        if len(carry):
+            b.omega[carry, 0] = omega
+        self._started[envs] = True
+        if self.incoming != "serve":
+            self._player_shots(envs, rngs)
         self.goal[envs] = _option(opts, "target_depth", len(envs), TARGET_DEPTH_RANGE,
                                   lambda: np.array([r.uniform(*self.depth_range) for r in rngs]))
         self.elapsed[envs] = 0
+
+    def _player_shots(self, envs: np.ndarray, rngs: list) -> None:
+        """Replace the serve by a recorded rally shot: always ("rally") or half the time
+        ("mixed"). The bank holds 4,096 shots of scripted players aiming at 2-6 m."""
+        if self._bank is None:
+            self._bank = load_shot_bank()
+        u = np.stack([r.random(2) for r in rngs])
+        take = np.ones(len(envs), bool) if self.incoming == "rally" else u[:, 0] < 0.5
+        if take.any():
+            rows = (u[take, 1] * len(self._bank)).astype(np.int64)
+            sh = self.game.shuttle
+            sh.pos[envs[take]] = self._bank[rows, :3]
+            sh.vel[envs[take]] = self._bank[rows, 3:]
+            mask = np.zeros(self.n, bool)
+            mask[envs[take]] = True
+            sh.shot(mask)
+            self.game._refresh()
 
     def observe(self) -> np.ndarray:
         obs = np.empty((self.n, OBS_SIZE))
@@ -184,11 +224,13 @@ class SimpleReturnEnv(gym.Env):
 
     def __init__(self, shuttle: str = "paper",
                  target_depth_range: tuple[float, float] = TARGET_DEPTH_RANGE,
-                 max_decisions: int = MAX_DECISIONS, render_mode: str | None = None) -> None:
+                 max_decisions: int = MAX_DECISIONS, render_mode: str | None = None,
+                 incoming: str = "serve", keep_bodies: bool = False) -> None:
         self.render_mode = render_mode
         self._view = EnvView(render_mode, n_players=1)
         self.observation_space, self.action_space = _spaces()
-        self.task = ReturnTask(1, shuttle, None, target_depth_range, max_decisions)
+        self.task = ReturnTask(1, shuttle, None, target_depth_range, max_decisions, incoming,
+                               keep_bodies)
         self._done = True
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
@@ -251,7 +293,8 @@ class SimpleReturnVectorEnv(NativeVectorEnv):
                  target_depth_range: tuple[float, float] = TARGET_DEPTH_RANGE,
                  max_decisions: int = MAX_DECISIONS, autoreset_mode: str = "next_step",
                  render_mode: str | None = None, seed: int | None = None,
-                 render_envs: int = 1) -> None:
+                 render_envs: int = 1, incoming: str = "serve",
+                 keep_bodies: bool = False) -> None:
         self._setup(num_envs, autoreset_mode)
         self.render_mode = render_mode
         # one view per rendered environment (each keeps its own shuttle trail)
@@ -260,7 +303,8 @@ class SimpleReturnVectorEnv(NativeVectorEnv):
         self.single_observation_space, self.single_action_space = _spaces()
         self.observation_space = spaces.Box(-1.0, 1.0, (n, OBS_SIZE), np.float32)
         self.action_space = spaces.Box(-1.0, 1.0, (n, ACTION_SIZE), np.float32)
-        self.task = ReturnTask(n, shuttle, seed, target_depth_range, max_decisions)
+        self.task = ReturnTask(n, shuttle, seed, target_depth_range, max_decisions, incoming,
+                               keep_bodies)
 
     def _seed_units(self, seeds: list[int]) -> None:
         for e, s in enumerate(seeds):

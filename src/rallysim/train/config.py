@@ -48,6 +48,10 @@ class TrainConfig:
     eval_seed: int = 12345
     checkpoint_every: int = 250_000
     low_policy: str = "pretrained"  # high stage: the frozen low level (path prefix or pretrained)
+    # low stage: what comes over ("serve", "mixed", "rally") and whether the player carries its
+    # state from one episode to the next (the original builds) instead of a random start
+    incoming: str = "serve"
+    keep_bodies: bool = False
 
     def __post_init__(self) -> None:
         if self.stage not in STAGES:

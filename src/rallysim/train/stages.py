@@ -44,7 +44,8 @@ def make_env(config: TrainConfig) -> NativeVecEnv:
     n, seed = config.n_envs, config.seed
     if config.stage == "low":
         venv = SimpleReturnVectorEnv(n, shuttle=config.shuttle, seed=seed,
-                                     autoreset_mode="same_step")
+                                     autoreset_mode="same_step", incoming=config.incoming,
+                                     keep_bodies=config.keep_bodies)
     elif config.stage == "high":
         turns = SimpleRallyTurnVectorEnv(n, low_level=frozen_low_level(config.low_policy),
                                          autoreset_mode="same_step", seed=seed,
