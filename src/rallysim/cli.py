@@ -182,10 +182,12 @@ def build_parser() -> argparse.ArgumentParser:
     train.set_defaults(run=_train)
 
     repro = sub.add_parser("reproduce", help="the whole pipeline and the paper's Table VII")
-    repro.add_argument("--budget", choices=("default", "quick", "smoke"), default="default",
-                       help="default: ~15 min on 2 cores; quick: a look in ~4 min")
+    repro.add_argument("--budget", choices=("default", "quick", "scratch", "smoke"),
+                       default="default",
+                       help="default: ~15 min on 2 cores; quick: a look in ~5 min; scratch: "
+                            "the default with the low level trained from scratch")
     repro.add_argument("--out", default="results")
-    repro.add_argument("--workers", type=int, default=2, help="seeds trained at once")
+    repro.add_argument("--workers", type=int, default=3, help="seeds trained at once")
     repro.set_defaults(run=_reproduce)
 
     ev = sub.add_parser("evaluate", help="rally statistics of HRL, Random High-level, Monolithic")

@@ -52,6 +52,12 @@ class TrainConfig:
     # state from one episode to the next (the original builds) instead of a random start
     incoming: str = "serve"
     keep_bodies: bool = False
+    # low stage, not the paper's method: fit the actor to the scripted controller first
+    # (behaviour cloning over warm_start_decisions of its play), then PPO as usual
+    warm_start: str = "none"
+    warm_start_decisions: int = 524_288
+    warm_start_epochs: int = 60
+    warm_start_log_std: float = -1.5
 
     def __post_init__(self) -> None:
         if self.stage not in STAGES:
@@ -62,6 +68,10 @@ class TrainConfig:
                      "eval_episodes", "checkpoint_every"):
             if getattr(self, name) < 1:
                 raise ValueError(f"{name} must be >= 1, got {getattr(self, name)}")
+        if self.warm_start not in ("none", "scripted"):
+            raise ValueError(f"warm_start must be 'none' or 'scripted', got {self.warm_start!r}")
+        if self.warm_start != "none" and self.stage != "low":
+            raise ValueError("warm_start applies to the low stage only")
         if self.stage == "mono" and self.n_envs % 2:
             raise ValueError("the mono stage needs an even n_envs (two players per rally)")
 

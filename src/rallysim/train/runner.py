@@ -140,6 +140,8 @@ def train_stage(config: TrainConfig, out_dir: str | Path, resume: bool = True,
         if progress:
             print(f"resuming {config.stage} from {latest.name} "
                   f"({model.num_timesteps:,} steps done)", file=sys.stderr, flush=True)
+    elif config.warm_start == "scripted":
+        curve["warm_start"] = warm_start(model, config, progress)
     (out / "config.yaml").write_text(yaml.safe_dump(config.to_dict(), sort_keys=False))
     monitor = _Monitor(config, out, curve, progress)
     remaining = config.decisions - int(model.num_timesteps)
@@ -164,6 +166,22 @@ def train_stage(config: TrainConfig, out_dir: str | Path, resume: bool = True,
     export_policy(model, config, out / "policy", final)
     (out / "curve.json").write_text(json.dumps(curve, indent=1))
     return curve
+
+
+def warm_start(model: Any, config: TrainConfig, progress: bool) -> dict[str, Any]:
+    """Behaviour-clone the scripted controller into ``model`` (labelled in every output)."""
+    from rallysim.policies import ScriptedController
+    from rallysim.train.warm_start import behaviour_clone
+
+    t = time.perf_counter()
+    if progress:
+        print(f"warm start: cloning the scripted controller over "
+              f"{config.warm_start_decisions:,} decisions ...", file=sys.stderr, flush=True)
+    result = behaviour_clone(model, ScriptedController().act_return,
+                             config.warm_start_decisions, epochs=config.warm_start_epochs,
+                             log_std=config.warm_start_log_std, shuttle=config.shuttle,
+                             seed=config.seed + 1_000_003)
+    return {**result, "teacher": "scripted", "wall_s": round(time.perf_counter() - t, 2)}
 
 
 def export_policy(model: Any, config: TrainConfig, prefix: Path, final: dict[str, Any]) -> None:
