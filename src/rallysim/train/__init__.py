@@ -3,9 +3,10 @@
 - ``rallysim.train.runner.train_stage``: one stage (low, high, mono) with PPO, checkpoints,
   resume, evaluations and the exported policy; ``rallysim.train.config`` its settings.
 - ``rallysim.train.sb3_vec.NativeVecEnv``: SB3 ``VecEnv`` over a natively batched vector env.
-- ``rallysim.train.low``: ``LowConfig`` and ``train_low`` (PPO on the SIMPLE low-level task).
-- ``rallysim.train.export``: ``save_policy`` / ``load_policy`` (safetensors + JSON, no pickle).
-- ``rallysim.train.evaluate``: ``evaluate_low`` (deterministic, seeded, batched evaluation).
+- ``rallysim.train.export``: ``save_policy`` (safetensors + JSON, no pickle; loaded by
+  ``rallysim.policies.mlp.load_policy``).
+- ``rallysim.train.warm_start``: the optional behaviour-cloning start of the low level.
+- ``rallysim.train.reproduce``: the whole pipeline and the Table VII report.
 
 Submodules are imported on use so that ``import rallysim.train`` stays light.
 """
@@ -14,14 +15,13 @@ from __future__ import annotations
 
 from typing import Any
 
-__all__ = ["LowConfig", "evaluate_low", "load_policy", "save_policy", "train_low"]
+__all__ = ["TrainConfig", "load_config", "save_policy", "train_stage"]
 
 _WHERE = {
-    "LowConfig": "rallysim.train.low",
-    "train_low": "rallysim.train.low",
+    "TrainConfig": "rallysim.train.config",
+    "load_config": "rallysim.train.config",
+    "train_stage": "rallysim.train.runner",
     "save_policy": "rallysim.train.export",
-    "load_policy": "rallysim.train.export",
-    "evaluate_low": "rallysim.train.evaluate",
 }
 
 

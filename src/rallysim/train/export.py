@@ -1,9 +1,7 @@
-"""Export trained actors as plain weights: ``PREFIX.safetensors`` + ``PREFIX.json``.
+"""Export trained SB3 actors as plain weights: ``PREFIX.safetensors`` + ``PREFIX.json``.
 
-No pickle anywhere: the weights are a safetensors file (tensors ``layers.{i}.weight`` (out, in),
-``layers.{i}.bias`` (out,), and ``log_std`` (actions,)), the architecture and the observation /
-action conventions a JSON document. ``load_policy`` rebuilds the deterministic actor (the mean
-action, clipped to the action bounds) in NumPy, so running a policy needs neither torch nor SB3.
+The format and its NumPy loader live in ``rallysim.policies.mlp`` (no torch needed to run a
+policy); this module writes it from an SB3 ``ActorCriticPolicy``.
 """
 
 from __future__ import annotations
@@ -13,16 +11,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from safetensors.numpy import load_file, save_file
+from safetensors.numpy import save_file
 
-FORMAT = "rallysim-mlp-policy"
-FORMAT_VERSION = 1
-ACTIVATIONS = {"tanh": np.tanh, "relu": lambda x: np.maximum(x, 0.0)}
-
-
-def _paths(prefix: str | Path) -> tuple[Path, Path]:
-    prefix = Path(prefix)
-    return prefix.with_name(prefix.name + ".safetensors"), prefix.with_name(prefix.name + ".json")
+from rallysim.policies.mlp import FORMAT, FORMAT_VERSION, policy_paths, sha256_file
 
 
 def _actor_layers(model: Any) -> tuple[list[tuple[np.ndarray, np.ndarray]], str, np.ndarray]:
@@ -77,9 +68,10 @@ def save_policy(model: Any, path_prefix: str | Path, env_id: str = "RallySim/Sim
                    "deterministic": "mean of a diagonal Gaussian, clipped to [low, high]"},
         "metadata": metadata or {},
     }
-    weights_path, json_path = _paths(path_prefix)
+    weights_path, json_path = policy_paths(path_prefix)
     weights_path.parent.mkdir(parents=True, exist_ok=True)
     save_file(tensors, str(weights_path), metadata={"format": FORMAT})
+    doc["weights_sha256"] = sha256_file(weights_path)
     json_path.write_text(json.dumps(doc, indent=1, default=_json_default))
     return weights_path, json_path
 
@@ -90,51 +82,3 @@ def _json_default(value: Any) -> Any:
     if isinstance(value, np.ndarray):
         return value.tolist()
     raise TypeError(f"not JSON serialisable: {type(value).__name__}")
-
-
-class MLPPolicy:
-    """A deterministic MLP actor in NumPy: ``policy(obs (N, d) or (d,)) -> actions``."""
-
-    def __init__(self, layers: list[tuple[np.ndarray, np.ndarray]], activation: str,
-                 low: np.ndarray, high: np.ndarray, log_std: np.ndarray,
-                 spec: dict[str, Any]) -> None:
-        self.layers = layers
-        self.activation = activation
-        self._act = ACTIVATIONS[activation]
-        self.low, self.high = low, high
-        self.log_std = log_std
-        self.spec = spec
-        self.obs_size = layers[0][0].shape[1]
-
-    def __call__(self, obs: np.ndarray) -> np.ndarray:
-        x = np.asarray(obs, np.float32)
-        single = x.ndim == 1
-        if x.shape[-1] != self.obs_size:
-            raise ValueError(f"expected observations of size {self.obs_size}, got {x.shape}")
-        x = np.atleast_2d(x)
-        last = len(self.layers) - 1
-        for i, (w, b) in enumerate(self.layers):
-            x = x @ w.T + b
-            if i < last:
-                x = self._act(x)
-        actions = np.clip(x, self.low, self.high)
-        return actions[0] if single else actions
-
-
-def load_policy(path_prefix: str | Path) -> MLPPolicy:
-    """Load a policy written by ``save_policy`` (safetensors + JSON only; nothing unpickled)."""
-    weights_path, json_path = _paths(path_prefix)
-    spec = json.loads(json_path.read_text())
-    if spec.get("format") != FORMAT or spec.get("format_version") != FORMAT_VERSION:
-        raise ValueError(f"{json_path} is not a {FORMAT} v{FORMAT_VERSION} document")
-    tensors = load_file(str(weights_path))
-    arch = spec["architecture"]
-    layers = [(tensors[f"layers.{i}.weight"], tensors[f"layers.{i}.bias"])
-              for i in range(arch["n_layers"])]
-    sizes = [int(layers[0][0].shape[1])] + [int(w.shape[0]) for w, _ in layers]
-    if sizes != arch["sizes"]:
-        raise ValueError(f"weights have layer sizes {sizes}, the JSON says {arch['sizes']}")
-    act = spec["action"]
-    low = np.asarray(act["low"], np.float32)
-    high = np.asarray(act["high"], np.float32)
-    return MLPPolicy(layers, arch["activation"], low, high, tensors["log_std"], spec)

@@ -185,17 +185,11 @@ def warm_start(model: Any, config: TrainConfig, progress: bool) -> dict[str, Any
 
 
 def export_policy(model: Any, config: TrainConfig, prefix: Path, final: dict[str, Any]) -> None:
-    """The deterministic actor as safetensors + JSON, with its weights' SHA-256."""
-    from rallysim.policies.mlp import policy_paths, sha256_file
+    """The deterministic actor as safetensors + JSON (with its weights' SHA-256)."""
     from rallysim.train.export import save_policy
 
-    save_policy(model, prefix, env_id=stages.EXPORT_ENV[config.stage],
-                metadata={"stage": config.stage, "seed": config.seed,
-                          "steps": int(model.num_timesteps), "final": final,
-                          "config": config.to_dict()})
-    weights, doc_path = policy_paths(prefix)
-    doc = json.loads(doc_path.read_text())
-    doc["weights_sha256"] = sha256_file(weights)
+    meta = {"stage": config.stage, "seed": config.seed, "steps": int(model.num_timesteps),
+            "final": final, "config": config.to_dict()}
     if config.stage == "high":
-        doc["goal_mapping"] = "goal_m = 4 + 2 * clip(action, -1, 1)"
-    doc_path.write_text(json.dumps(doc, indent=1))
+        meta["goal_mapping"] = "goal_m = 4 + 2 * clip(action, -1, 1)"
+    save_policy(model, prefix, env_id=stages.EXPORT_ENV[config.stage], metadata=meta)
