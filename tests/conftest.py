@@ -24,3 +24,17 @@ def run_until_landed(game: Game, max_decisions: int = 500):
         if ev.landed.all():
             return ev
     raise AssertionError("the shuttle never landed")
+
+
+def gl_problem() -> str | None:
+    """Why no OpenGL renderer can be made here (None: rendering works)."""
+    try:
+        from rallysim.render import SceneRenderer, active_backend
+    except ImportError as err:
+        return f"rendering extra not installed: {err}"
+    try:
+        with SceneRenderer(1, 32, 32) as view:
+            view.render_current()
+    except Exception as err:  # any failure to make a context means: no GL here
+        return f"no OpenGL backend (MUJOCO_GL={active_backend()!r}): {err}"
+    return None

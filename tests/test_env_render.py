@@ -7,20 +7,13 @@ import pytest
 
 from rallysim.envs import simple_rally_v0
 from rallysim.envs.simple_return_v0 import SimpleReturnEnv, SimpleReturnVectorEnv
+from tests.conftest import gl_problem
 
 render = pytest.importorskip("rallysim.render")
 
 
-def _gl_ok() -> bool:
-    try:
-        with render.SceneRenderer(1, 32, 32) as view:
-            view.render_current()
-    except Exception:
-        return False
-    return True
-
-
-needs_gl = pytest.mark.skipif(not _gl_ok(), reason="no OpenGL backend on this machine")
+_PROBLEM = gl_problem()
+needs_gl = pytest.mark.skipif(_PROBLEM is not None, reason=_PROBLEM or "")
 
 
 def looks_like_a_scene(frame: np.ndarray) -> None:

@@ -15,25 +15,15 @@ from rallysim.envs.simple_return_v0 import SimpleReturnEnv
 from rallysim.policies.scripted import ScriptedController
 from rallysim.render import (
     SceneRenderer,
-    active_backend,
     record_low_level,
     write_strip,
     write_video,
 )
 from rallysim.render.backend import select_backend
 from rallysim.render.model import MARKER_HALF_HEIGHT
+from tests.conftest import gl_problem
 
-
-def _gl_problem() -> str | None:
-    try:
-        with SceneRenderer(1, 32, 32) as view:
-            view.render_current()
-    except Exception as err:  # any failure to make a context means: no GL here
-        return f"no OpenGL backend (MUJOCO_GL={active_backend()!r}): {err}"
-    return None
-
-
-_PROBLEM = _gl_problem()
+_PROBLEM = gl_problem()
 pytestmark = pytest.mark.skipif(_PROBLEM is not None, reason=_PROBLEM or "")
 
 

@@ -15,22 +15,14 @@ from gymnasium.utils.env_checker import check_env
 from rallysim.core.game import Game
 from rallysim.core.humanlike import HumanLikeBodies, humanlike_geometry
 from rallysim.envs.humanlike_return_v0 import HumanLikeReturnEnv, HumanLikeReturnVectorEnv
-from rallysim.render import SceneRenderer, active_backend
+from rallysim.render import SceneRenderer
 from rallysim.render.players import ARROW_SECONDS
+from tests.conftest import gl_problem
 
 BODIES = ("hips", "spine", "chest", "upper_arm", "lower_arm", "hand")
 
 
-def _gl_problem() -> str | None:
-    try:
-        with SceneRenderer(1, 32, 32, player="humanlike") as view:
-            view.render_current()
-    except Exception as err:  # any failure to make a context means: no GL here
-        return f"no OpenGL backend (MUJOCO_GL={active_backend()!r}): {err}"
-    return None
-
-
-_PROBLEM = _gl_problem()
+_PROBLEM = gl_problem()
 pytestmark = pytest.mark.skipif(_PROBLEM is not None, reason=_PROBLEM or "")
 
 

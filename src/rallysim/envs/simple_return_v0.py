@@ -76,7 +76,7 @@ from rallysim.envs.simple_obs import (
     player_observations,
 )
 from rallysim.envs.validation import check_options, validate_actions
-from rallysim.envs.vector_base import NEXT_STEP, NativeVectorEnv
+from rallysim.envs.vector_base import NEXT_STEP, TaskVectorEnv
 
 OBS_SIZE = PLAYER_OBS_SIZE + 1
 ACTION_SIZE = 3
@@ -279,7 +279,7 @@ def _scalar(v):
     return v.item() if np.ndim(v) == 0 else v
 
 
-class SimpleReturnVectorEnv(NativeVectorEnv):
+class SimpleReturnVectorEnv(TaskVectorEnv):
     """N environments of the SIMPLE low-level task stepped together in one call.
 
     The fast path: one MuJoCo model holds all N players and the rules run as array code, so
@@ -288,6 +288,8 @@ class SimpleReturnVectorEnv(NativeVectorEnv):
     """
 
     metadata = {"render_modes": RENDER_MODES, "render_fps": 10, "autoreset_mode": NEXT_STEP}
+    goal_key = "target_depth"
+    action_size = ACTION_SIZE
 
     def __init__(self, num_envs: int = 1, shuttle: str = "paper",
                  target_depth_range: tuple[float, float] = TARGET_DEPTH_RANGE,
@@ -295,43 +297,14 @@ class SimpleReturnVectorEnv(NativeVectorEnv):
                  render_mode: str | None = None, seed: int | None = None,
                  render_envs: int = 1, incoming: str = "serve",
                  keep_bodies: bool = False) -> None:
-        self._setup(num_envs, autoreset_mode)
-        self.render_mode = render_mode
-        # one view per rendered environment (each keeps its own shuttle trail)
-        self._views = [EnvView(render_mode, 1) for _ in range(min(render_envs, num_envs))]
-        n = self.num_envs
-        self.single_observation_space, self.single_action_space = _spaces()
-        self.observation_space = spaces.Box(-1.0, 1.0, (n, OBS_SIZE), np.float32)
-        self.action_space = spaces.Box(-1.0, 1.0, (n, ACTION_SIZE), np.float32)
-        self.task = ReturnTask(n, shuttle, seed, target_depth_range, max_decisions, incoming,
-                               keep_bodies)
+        if not isinstance(num_envs, int | np.integer) or num_envs < 1:
+            raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
+        task = ReturnTask(int(num_envs), shuttle, seed, target_depth_range, max_decisions,
+                          incoming, keep_bodies)
+        self._init_task(num_envs, autoreset_mode, task, _spaces(), render_mode, render_envs, {})
 
-    def _seed_units(self, seeds: list[int]) -> None:
-        for e, s in enumerate(seeds):
-            self.task.game.seed(np.array([e]), s)
-
-    def _reset_units(self, units: np.ndarray, options: dict | None) -> None:
-        self.task.reset(units, options)
-
-    def _reset_info(self) -> dict:
-        return {"target_depth": self.task.goal.copy()}
-
-    def _step_units(self, actions):
-        a = validate_actions(actions, (self.num_envs, ACTION_SIZE))
-        return self.task.step(a)
-
-    def _observe(self) -> np.ndarray:
-        return self.task.observe()
-
-    def render(self) -> tuple[np.ndarray, ...] | None:
-        """Frames of the first ``render_envs`` environments (``"rgb_array"``)."""
-        if self.render_mode is None:
-            return None
-        return tuple(render_return(v, self.task, e) for e, v in enumerate(self._views))
-
-    def close_extras(self, **kwargs: Any) -> None:
-        for v in self._views:
-            v.close()
+    def _frame(self, view: EnvView, env: int) -> np.ndarray | None:
+        return render_return(view, self.task, env)
 
     def _blank_info(self, info: dict, units: np.ndarray) -> None:
         super()._blank_info(info, units)

@@ -138,3 +138,62 @@ class NativeVectorEnv(VectorEnv):
         else:
             self._needs_reset = done
         return obs, reward, np.repeat(term, k), np.repeat(trunc, k), info
+
+
+class TaskVectorEnv(NativeVectorEnv):
+    """A native vector env over a one-player task object: ``task.game`` (seeded per env),
+    ``task.reset(units, options)``, ``task.step(actions)``, ``task.observe()`` and
+    ``task.goal``. Subclasses set ``goal_key`` and ``action_size`` and draw frames in
+    ``_frame(view, env)``."""
+
+    goal_key = "goal"
+    action_size = 0
+
+    def _init_task(self, num_envs: int, autoreset_mode: Any, task: Any, spaces: tuple,
+                   render_mode: str | None, render_envs: int, view_kwargs: dict) -> None:
+        from gymnasium import spaces as gym_spaces
+
+        from rallysim.envs.rendering import EnvView
+
+        self._setup(num_envs, autoreset_mode)
+        self.render_mode = render_mode
+        # one view per rendered environment (each keeps its own shuttle trail)
+        self._views = [EnvView(render_mode, 1, **view_kwargs)
+                       for _ in range(min(render_envs, self.num_envs))]
+        n = self.num_envs
+        self.single_observation_space, self.single_action_space = spaces
+        obs_size = spaces[0].shape[0]
+        self.observation_space = gym_spaces.Box(-1.0, 1.0, (n, obs_size), np.float32)
+        self.action_space = gym_spaces.Box(-1.0, 1.0, (n, self.action_size), np.float32)
+        self.task = task
+
+    def _seed_units(self, seeds: list[int]) -> None:
+        for e, s in enumerate(seeds):
+            self.task.game.seed(np.array([e]), s)
+
+    def _reset_units(self, units: np.ndarray, options: dict | None) -> None:
+        self.task.reset(units, options)
+
+    def _reset_info(self) -> dict:
+        return {self.goal_key: self.task.goal.copy()}
+
+    def _step_units(self, actions: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
+        from rallysim.envs.validation import validate_actions
+
+        return self.task.step(validate_actions(actions, (self.num_envs, self.action_size)))
+
+    def _observe(self) -> np.ndarray:
+        return self.task.observe()
+
+    def _frame(self, view: Any, env: int) -> np.ndarray | None:
+        raise NotImplementedError
+
+    def render(self) -> tuple[np.ndarray, ...] | None:
+        """Frames of the first ``render_envs`` environments (``"rgb_array"``)."""
+        if self.render_mode is None:
+            return None
+        return tuple(self._frame(v, e) for e, v in enumerate(self._views))
+
+    def close_extras(self, **kwargs: Any) -> None:
+        for v in self._views:
+            v.close()
