@@ -123,3 +123,17 @@ def test_every_stage_smoke_runs_and_exports_a_loadable_policy(tmp_path, stage):
     if stage == "high":
         assert curve["decisions_simulated"] > curve["steps"]  # a turn spans many decisions
         assert curve["final"]["mean_rally"] > 10  # the scripted low level rallies
+
+
+def test_humanlike_low_level_trains_and_reports_its_errors(tmp_path):
+    overrides = {**TINY, "decisions": 1024, "env": "humanlike"}
+    curve = train_stage(load_config("low", None, overrides), tmp_path, progress=False)
+    final = curve["final"]
+    assert {"hit_rate", "mean_angle_error", "mean_abs_speed_error"} <= set(final)
+    assert 0.0 <= final["hit_rate"] <= 1.0
+    policy = load_policy(tmp_path / "policy")
+    assert policy(np.zeros((2, 85), np.float32)).shape == (2, 15)
+    assert json.loads((tmp_path / "policy.json").read_text())["env_id"] == (
+        "RallySim/HumanLikeReturn-v0")
+    with pytest.raises(ValueError, match="low-level stage only"):
+        load_config("high", None, {"env": "humanlike"})

@@ -105,12 +105,13 @@ def _train(args: argparse.Namespace) -> int:
               file=sys.stderr)
         return 2
     overrides = parse_overrides(args.set)
-    for key in ("decisions", "seed", "shuttle", "low_policy"):
+    for key in ("decisions", "seed", "shuttle", "low_policy", "env"):
         value = getattr(args, key, None)
         if value is not None:
             overrides[key] = value
     config = load_config(args.stage, args.config, overrides)
-    out = Path(args.out or f"runs/{args.stage}_seed{config.seed}")
+    tag = f"{args.stage}_humanlike" if config.env == "humanlike" else args.stage
+    out = Path(args.out or f"runs/{tag}_seed{config.seed}")
     curve = train_stage(config, out, resume=not args.restart, progress=not args.quiet)
     print(f"{args.stage}: {curve['steps']:,} steps in {curve['train_wall_s']:.0f} s "
           f"({curve['steps_per_s']:,.0f}/s); policy written to {out / 'policy.safetensors'}")
@@ -174,6 +175,8 @@ def build_parser() -> argparse.ArgumentParser:
     train.add_argument("--decisions", type=int, help="budget in steps (turns for high)")
     train.add_argument("--seed", type=int)
     train.add_argument("--shuttle", choices=("paper", "paper-alg1", "aero"))
+    train.add_argument("--env", choices=("simple", "humanlike"),
+                       help="the player of the low stage (default simple)")
     train.add_argument("--low-policy", dest="low_policy",
                        help="high stage: frozen low level (path prefix, pretrained, scripted)")
     train.add_argument("--out", help="run folder (default runs/STAGE_seedN)")

@@ -20,6 +20,7 @@ class TrainConfig:
     """Everything that shapes one PPO training run of one stage."""
 
     stage: str = "low"
+    env: str = "simple"  # low stage: the player, "simple" or "humanlike"
     shuttle: str = "paper"
     decisions: int = 3_000_000  # budget, in SB3 steps (decisions; turns for the high level)
     seed: int = 0
@@ -62,6 +63,10 @@ class TrainConfig:
     def __post_init__(self) -> None:
         if self.stage not in STAGES:
             raise ValueError(f"unknown stage {self.stage!r}; valid: {', '.join(STAGES)}")
+        if self.env not in ("simple", "humanlike"):
+            raise ValueError(f"env must be 'simple' or 'humanlike', got {self.env!r}")
+        if self.env == "humanlike" and self.stage != "low":
+            raise ValueError("the HUMAN-LIKE player has a low-level stage only so far")
         if self.activation not in ("tanh", "relu"):
             raise ValueError(f"activation must be 'tanh' or 'relu', got {self.activation!r}")
         for name in ("decisions", "n_envs", "n_steps", "batch_size", "n_epochs",
@@ -77,7 +82,7 @@ class TrainConfig:
 
     def network(self) -> dict[str, Any]:
         """What a checkpoint must share with the run that resumes it."""
-        return {"stage": self.stage, "net_arch": list(self.net_arch),
+        return {"stage": self.stage, "env": self.env, "net_arch": list(self.net_arch),
                 "activation": self.activation, "shuttle": self.shuttle}
 
     def ppo_kwargs(self) -> dict[str, Any]:

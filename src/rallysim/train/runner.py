@@ -192,4 +192,5 @@ def export_policy(model: Any, config: TrainConfig, prefix: Path, final: dict[str
             "final": final, "config": config.to_dict()}
     if config.stage == "high":
         meta["goal_mapping"] = "goal_m = 4 + 2 * clip(action, -1, 1)"
-    save_policy(model, prefix, env_id=stages.EXPORT_ENV[config.stage], metadata=meta)
+    env_id = stages.EXPORT_ENV["humanlike" if config.env == "humanlike" else config.stage]
+    save_policy(model, prefix, env_id=env_id, metadata=meta)

@@ -29,7 +29,8 @@ Act = Callable[[np.ndarray], np.ndarray]
 
 # Which env an exported policy drives, and how many observations it takes.
 EXPORT_ENV = {"low": "RallySim/SimpleReturn-v0", "high": "RallySim/SimpleRallyTurn-v0",
-              "mono": "rallysim.envs.simple_rally_v0:SimpleRallyVectorEnv"}
+              "mono": "rallysim.envs.simple_rally_v0:SimpleRallyVectorEnv",
+              "humanlike": "RallySim/HumanLikeReturn-v0"}
 
 
 def frozen_low_level(spec: str) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
@@ -42,6 +43,11 @@ def frozen_low_level(spec: str) -> Callable[[np.ndarray, np.ndarray], np.ndarray
 def make_env(config: TrainConfig) -> NativeVecEnv:
     """The stage's training env behind SB3's ``VecEnv`` API (same-step autoreset)."""
     n, seed = config.n_envs, config.seed
+    if config.env == "humanlike":
+        from rallysim.envs.humanlike_return_v0 import HumanLikeReturnVectorEnv
+
+        return NativeVecEnv(HumanLikeReturnVectorEnv(n, shuttle=config.shuttle, seed=seed,
+                                                     autoreset_mode="same_step"))
     if config.stage == "low":
         venv = SimpleReturnVectorEnv(n, shuttle=config.shuttle, seed=seed,
                                      autoreset_mode="same_step", incoming=config.incoming,
@@ -67,6 +73,11 @@ def goals_from_actions(act: Act) -> Act:
 def evaluate(config: TrainConfig, act: Act, rallies: int | None = None) -> dict[str, Any]:
     """The stage's numbers for deterministic policy ``act`` (observations -> actions)."""
     n = rallies or config.eval_episodes
+    if config.env == "humanlike":
+        from rallysim.eval.humanlike_eval import evaluate_humanlike
+
+        return evaluate_humanlike(act, episodes=n, seed=config.eval_seed,
+                                  shuttle=config.shuttle)
     if config.stage == "low":
         return evaluate_return(act, episodes=n, seed=config.eval_seed,
                                shuttle=config.shuttle).as_dict()
@@ -81,6 +92,9 @@ def evaluate(config: TrainConfig, act: Act, rallies: int | None = None) -> dict[
 
 
 def headline(config: TrainConfig, result: dict[str, Any]) -> str:
+    if config.env == "humanlike":
+        return (f"reward {result['mean_reward']:.3f} hit {result['hit_rate']:.3f} angle "
+                f"{result['mean_angle_error']:.1f} deg speed {result['mean_abs_speed_error']:.2f}")
     if config.stage == "low":
         return (f"reward {result['mean_reward']:.3f} hit {result['hit_rate']:.3f} "
                 f"err {result['median_error']:.2f} m")
