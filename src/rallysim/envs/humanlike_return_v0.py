@@ -73,7 +73,6 @@ from __future__ import annotations
 
 from typing import Any
 
-import gymnasium as gym
 import mujoco
 import numpy as np
 from gymnasium import spaces
@@ -85,7 +84,8 @@ from rallysim.core.shuttle import ShuttleState, make_shuttle_model
 from rallysim.envs.humanlike_obs import HIPS, PLAYER_OBS_SIZE, SHUTTLE, player_observations
 from rallysim.envs.rendering import RENDER_MODES, EnvView
 from rallysim.envs.simple_obs import POSITION_CENTRE, POSITION_SCALE, SHUTTLE_SPEED_SCALE
-from rallysim.envs.validation import check_options, validate_actions
+from rallysim.envs.task_env import TaskEnv, box_spaces
+from rallysim.envs.validation import check_options
 from rallysim.envs.vector_base import NEXT_STEP, TaskVectorEnv
 
 OBS_SIZE = PLAYER_OBS_SIZE + 3  # 85
@@ -226,59 +226,26 @@ def _vector_option(opts: dict, key: str, k: int, size: int, bounds: np.ndarray,
 
 
 def _spaces() -> tuple[spaces.Box, spaces.Box]:
-    obs = spaces.Box(-1.0, 1.0, (OBS_SIZE,), np.float32)
-    act = spaces.Box(-1.0, 1.0, (ACTION_SIZE,), np.float32)
-    return obs, act
+    return box_spaces(OBS_SIZE, ACTION_SIZE)
 
 
-class HumanLikeReturnEnv(gym.Env):
+class HumanLikeReturnEnv(TaskEnv):
     """One environment of the HUMAN-LIKE low-level task. See the module docstring."""
 
     metadata = {"render_modes": RENDER_MODES, "render_fps": 10}
+    goal_key = "target_velocity"
+    hit_keys = HIT_KEYS
+    landing_keys = ("landing_point",)
 
     def __init__(self, shuttle: str = "paper", max_decisions: int = MAX_DECISIONS,
                  render_mode: str | None = None) -> None:
-        self.render_mode = render_mode
-        self._view = EnvView(render_mode, n_players=1, player="humanlike")
-        self.observation_space, self.action_space = _spaces()
-        self.task = HumanLikeReturnTask(1, shuttle, None, max_decisions)
-        self._done = True
+        task = HumanLikeReturnTask(1, shuttle, None, max_decisions)
+        self._init_task(task, OBS_SIZE, ACTION_SIZE, render_mode, {"player": "humanlike"})
 
-    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
-        super().reset(seed=seed)
-        if seed is not None:
-            self.task.game.seed(np.array([0]), seed)
-        self.task.reset(np.array([0]), options)
-        self._done = False
-        self._view.new_episode()
-        if self.render_mode == "human":
-            self.render()
-        return self.task.observe()[0], {"target_velocity": self.task.goal[0].copy()}
-
-    def render(self) -> np.ndarray | None:
+    def _frame(self, view: EnvView, env: int) -> np.ndarray | None:
         """The player's half court from behind its right with the target racket velocity as
         a red arrow from the racket head (``"rgb_array"``)."""
-        return render_humanlike_return(self._view, self.task, 0)
-
-    def close(self) -> None:
-        self._view.close()
-
-    def step(self, action):
-        if self._done:
-            raise RuntimeError("the episode has ended (or never began): call reset() first")
-        a = validate_actions(action, (ACTION_SIZE,))
-        reward, term, trunc, info = self.task.step(a[None, :])
-        self._done = bool(term[0] or trunc[0])
-        if self.render_mode == "human":
-            self.render()
-        # Event values appear only when their event happened (Gymnasium's single-env habit).
-        keep = {"hit", "net_touch", "landed", "target_velocity"}
-        if info["hit"][0]:
-            keep |= set(HIT_KEYS)
-        if info["landed"][0]:
-            keep.add("landing_point")
-        return (self.task.observe()[0], float(reward[0]), bool(term[0]), bool(trunc[0]),
-                {k: _scalar(v[0]) for k, v in info.items() if k in keep})
+        return render_humanlike_return(view, self.task, env)
 
 
 def render_humanlike_return(view: EnvView, task: HumanLikeReturnTask, env: int,
@@ -287,10 +254,6 @@ def render_humanlike_return(view: EnvView, task: HumanLikeReturnTask, env: int,
     hud = (f"target ({goal[0]:+.1f}, {goal[1]:+.1f}, {goal[2]:+.1f}) m/s   "
            f"t {0.1 * task.elapsed[env]:.1f} s   shuttle {task.game.flight.name}")
     return view.render(task.game, env, hud_text=hud, target_velocity=goal)
-
-
-def _scalar(v):
-    return v.item() if np.ndim(v) == 0 else v
 
 
 class HumanLikeReturnVectorEnv(TaskVectorEnv):

@@ -62,7 +62,6 @@ from __future__ import annotations
 
 from typing import Any
 
-import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
@@ -75,7 +74,8 @@ from rallysim.envs.simple_obs import (
     normalise_depth,
     player_observations,
 )
-from rallysim.envs.validation import check_options, validate_actions
+from rallysim.envs.task_env import TaskEnv, box_spaces
+from rallysim.envs.validation import check_options
 from rallysim.envs.vector_base import NEXT_STEP, TaskVectorEnv
 
 OBS_SIZE = PLAYER_OBS_SIZE + 1
@@ -212,71 +212,34 @@ def _option(opts: dict, key: str, k: int, bounds: tuple[float, float], draw) -> 
 
 
 def _spaces() -> tuple[spaces.Box, spaces.Box]:
-    obs = spaces.Box(-1.0, 1.0, (OBS_SIZE,), np.float32)
-    act = spaces.Box(-1.0, 1.0, (ACTION_SIZE,), np.float32)
-    return obs, act
+    return box_spaces(OBS_SIZE, ACTION_SIZE)
 
 
-class SimpleReturnEnv(gym.Env):
+class SimpleReturnEnv(TaskEnv):
     """One environment of the SIMPLE low-level task. See the module docstring."""
 
     metadata = {"render_modes": RENDER_MODES, "render_fps": 10}
+    goal_key = "target_depth"
+    hit_keys = ("racket_speed",)
+    landing_keys = LANDING_KEYS
 
     def __init__(self, shuttle: str = "paper",
                  target_depth_range: tuple[float, float] = TARGET_DEPTH_RANGE,
                  max_decisions: int = MAX_DECISIONS, render_mode: str | None = None,
                  incoming: str = "serve", keep_bodies: bool = False) -> None:
-        self.render_mode = render_mode
-        self._view = EnvView(render_mode, n_players=1)
-        self.observation_space, self.action_space = _spaces()
-        self.task = ReturnTask(1, shuttle, None, target_depth_range, max_decisions, incoming,
-                               keep_bodies)
-        self._done = True
+        task = ReturnTask(1, shuttle, None, target_depth_range, max_decisions, incoming,
+                          keep_bodies)
+        self._init_task(task, OBS_SIZE, ACTION_SIZE, render_mode, {})
 
-    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
-        super().reset(seed=seed)
-        if seed is not None:
-            self.task.game.seed(np.array([0]), seed)
-        self.task.reset(np.array([0]), options)
-        self._done = False
-        self._view.new_episode()
-        if self.render_mode == "human":
-            self.render()
-        return self.task.observe()[0], {"target_depth": float(self.task.goal[0])}
-
-    def render(self) -> np.ndarray | None:
+    def _frame(self, view: EnvView, env: int) -> np.ndarray | None:
         """The court from the side with the target landing spot in red (``"rgb_array"``)."""
-        return render_return(self._view, self.task, 0)
-
-    def close(self) -> None:
-        self._view.close()
-
-    def step(self, action):
-        if self._done:
-            raise RuntimeError("the episode has ended (or never began): call reset() first")
-        a = validate_actions(action, (ACTION_SIZE,))
-        reward, term, trunc, info = self.task.step(a[None, :])
-        self._done = bool(term[0] or trunc[0])
-        if self.render_mode == "human":
-            self.render()
-        # Event values appear only when their event happened (Gymnasium's single-env habit).
-        keep = {"hit", "net_touch", "landed", "target_depth"}
-        if info["hit"][0]:
-            keep.add("racket_speed")
-        if info["landed"][0]:
-            keep |= set(LANDING_KEYS)
-        return (self.task.observe()[0], float(reward[0]), bool(term[0]), bool(trunc[0]),
-                {k: _scalar(v[0]) for k, v in info.items() if k in keep})
+        return render_return(view, self.task, env)
 
 
 def render_return(view: EnvView, task: ReturnTask, env: int) -> np.ndarray | None:
     hud = (f"target {task.goal[env]:.2f} m   t {0.1 * task.elapsed[env]:.1f} s   "
            f"shuttle {task.game.flight.name}")
     return view.render(task.game, env, float(task.goal[env]), hud)
-
-
-def _scalar(v):
-    return v.item() if np.ndim(v) == 0 else v
 
 
 class SimpleReturnVectorEnv(TaskVectorEnv):
