@@ -38,3 +38,34 @@ def gl_problem() -> str | None:
     except Exception as err:  # any failure to make a context means: no GL here
         return f"no OpenGL backend (MUJOCO_GL={active_backend()!r}): {err}"
     return None
+
+
+def rollout_single(env, seed, actions):
+    """Observations (then observation + reward per step) of one seeded single-env episode."""
+    obs, _ = env.reset(seed=seed)
+    out = [obs]
+    for a in actions:
+        obs, r, term, trunc, _ = env.step(a)
+        out.append(np.append(obs, r))
+        if term or trunc:
+            break
+    return out
+
+
+def check_seeded_and_batched(make_single, make_vector, actions):
+    """The same seed replays the same episode, and slot i of a batch seeded s replays a single
+    env seeded s + i, bit for bit. ``actions``: (steps, slots, action size)."""
+    steps, slots = actions.shape[:2]
+    a = rollout_single(make_single(), 7, actions[:, 0])
+    b = rollout_single(make_single(), 7, actions[:, 0])
+    assert all(np.array_equal(x, y) for x, y in zip(a, b, strict=True))
+    vec = make_vector(slots)
+    obs, _ = vec.reset(seed=5)
+    singles = [rollout_single(make_single(), 5 + i, actions[:, i]) for i in range(slots)]
+    for i in range(slots):
+        assert np.array_equal(obs[i], singles[i][0])
+    for k in range(steps):
+        obs, r, _, _, _ = vec.step(actions[k])
+        for i in range(slots):
+            if k + 1 < len(singles[i]):
+                assert np.array_equal(np.append(obs[i], r[i]), singles[i][k + 1])

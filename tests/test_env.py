@@ -9,6 +9,7 @@ import rallysim  # noqa: F401  (registers the envs)
 from rallysim.envs.simple_return_v0 import SimpleReturnEnv, SimpleReturnVectorEnv
 from rallysim.eval.low_eval import evaluate_return
 from rallysim.policies import ScriptedController
+from tests.conftest import check_seeded_and_batched
 
 
 def test_registered_and_checked():
@@ -29,34 +30,9 @@ def test_observations_stay_in_bounds_under_random_play():
         obs, *_ = env.step(rng.uniform(-3, 3, (64, 3)))
 
 
-def rollout_single(seed, actions):
-    env = SimpleReturnEnv()
-    obs, _ = env.reset(seed=seed)
-    out = [obs]
-    for a in actions:
-        obs, r, term, trunc, _ = env.step(a)
-        out.append(np.append(obs, r))
-        if term or trunc:
-            break
-    return out
-
-
 def test_same_seed_same_trajectory_and_vector_matches_single():
-    rng = np.random.default_rng(0)
-    actions = rng.uniform(-1, 1, (40, 3, 3))
-    a = rollout_single(7, actions[:, 0])
-    b = rollout_single(7, actions[:, 0])
-    assert all(np.array_equal(x, y) for x, y in zip(a, b, strict=True))
-    vec = SimpleReturnVectorEnv(3)
-    obs, _ = vec.reset(seed=5)
-    singles = [rollout_single(5 + i, actions[:, i]) for i in range(3)]
-    for i in range(3):
-        assert np.array_equal(obs[i], singles[i][0])
-    for k in range(40):
-        obs, r, _term, _trunc, _ = vec.step(actions[k])
-        for i in range(3):
-            if k + 1 < len(singles[i]):
-                assert np.array_equal(np.append(obs[i], r[i]), singles[i][k + 1])
+    actions = np.random.default_rng(0).uniform(-1, 1, (40, 3, 3))
+    check_seeded_and_batched(SimpleReturnEnv, SimpleReturnVectorEnv, actions)
 
 
 def test_bad_actions_raise_and_leave_state_untouched():

@@ -18,6 +18,7 @@ from rallysim.envs.humanlike_return_v0 import (
     HumanLikeReturnVectorEnv,
     ScriptedSwing,
 )
+from tests.conftest import check_seeded_and_batched
 
 # SPEC §10's joint table, degrees, in JOINTS order
 SPEC_RANGES = [(-15, 15), (-15, 15), (-90, 90), (-75, 75), (-85, 85), (0, 100), (-90, 90),
@@ -305,34 +306,9 @@ def test_hit_info_on_a_crafted_hit():
     assert info["speed_error"] == pytest.approx(np.linalg.norm(v) / np.sqrt(8) - 1)
 
 
-def rollout_single(seed, actions):
-    env = HumanLikeReturnEnv()
-    obs, _ = env.reset(seed=seed)
-    out = [obs]
-    for a in actions:
-        obs, r, term, trunc, _ = env.step(a)
-        out.append(np.append(obs, r))
-        if term or trunc:
-            break
-    return out
-
-
 def test_same_seed_same_trajectory_and_vector_matches_single():
-    rng = np.random.default_rng(0)
-    actions = rng.uniform(-1, 1, (25, 3, 15))
-    a = rollout_single(7, actions[:, 0])
-    b = rollout_single(7, actions[:, 0])
-    assert all(np.array_equal(x, y) for x, y in zip(a, b, strict=True))
-    vec = HumanLikeReturnVectorEnv(3)
-    obs, _ = vec.reset(seed=5)
-    singles = [rollout_single(5 + i, actions[:, i]) for i in range(3)]
-    for i in range(3):
-        assert np.array_equal(obs[i], singles[i][0])
-    for k in range(25):
-        obs, r, _, _, _ = vec.step(actions[k])
-        for i in range(3):
-            if k + 1 < len(singles[i]):
-                assert np.array_equal(np.append(obs[i], r[i]), singles[i][k + 1])
+    actions = np.random.default_rng(0).uniform(-1, 1, (25, 3, 15))
+    check_seeded_and_batched(HumanLikeReturnEnv, HumanLikeReturnVectorEnv, actions)
 
 
 def test_bad_input_raises_and_leaves_state_untouched():
