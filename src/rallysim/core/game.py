@@ -7,6 +7,7 @@ Gymnasium and PettingZoo envs) turn ``Game`` state and ``Events`` into observati
 from __future__ import annotations
 
 from dataclasses import dataclass, fields
+from typing import Any
 
 import numpy as np
 
@@ -102,21 +103,19 @@ class Game:
             self.rngs[e] = np.random.default_rng(None if seed is None else seed + j)
 
     def reset(self, envs: np.ndarray, receiver: np.ndarray | int = 0,
-              base_x: np.ndarray | None = None, theta: np.ndarray | float = 0.0) -> None:
+              base_x: np.ndarray | None = None, theta: np.ndarray | float = 0.0,
+              **body: Any) -> None:
         """Serve a new shuttle in ``envs`` (indices) toward ``receiver``; place the players at
-        own-frame ``base_x`` (len(envs), P), arms at ``theta``."""
+        own-frame ``base_x`` (len(envs), P), arms at ``theta`` (``body``: further keywords of
+        the bodies' own ``reset``)."""
         envs = np.asarray(envs, dtype=np.int64)
         k = len(envs)
         receiver = np.broadcast_to(np.asarray(receiver, np.int64), (k,))
         if base_x is None:
             base_x = np.full((k, self.n_players), -2.7)
-        self.bodies.reset(envs, base_x, theta)
+        self.bodies.reset(envs, base_x, theta, **body)
         u = np.stack([self.rngs[e].random(rules.SERVE_DRAWS) for e in envs])
-        pos, vel = rules.sample_serve(u, receiver)
-        self.shuttle.pos[envs], self.shuttle.vel[envs] = pos, vel
-        shot = np.zeros(self.n_envs, bool)
-        shot[envs] = True
-        self.shuttle.shot(shot)
+        self.launch(envs, *rules.sample_serve(u, receiver))
         self.in_play[envs] = True
         self.armed[envs] = False
         self.armed[envs, receiver] = True
@@ -124,6 +123,14 @@ class Game:
         self.last_hitter[envs] = -1
         self.hits[envs] = 0
         self.net_touched[envs] = False
+
+    def launch(self, envs: np.ndarray, pos: np.ndarray, vel: np.ndarray) -> None:
+        """Put shuttles in flight in ``envs`` from world ``pos`` at ``vel`` (each (len(envs),
+        3)): the serve, or a task's own serve or fed shot in its place."""
+        self.shuttle.pos[envs], self.shuttle.vel[envs] = pos, vel
+        mask = np.zeros(self.n_envs, bool)
+        mask[envs] = True
+        self.shuttle.shot(mask)
         self._refresh()
 
     # -- one decision ---------------------------------------------------------------------------

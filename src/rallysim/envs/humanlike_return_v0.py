@@ -155,16 +155,9 @@ class HumanLikeReturnTask:
         self.goal[envs] = _vector_option(opts, "target_velocity", k, 3,
                                          np.array([[-TARGET_SCALE, TARGET_SCALE]] * 3),
                                          sample_targets(u[:, 2:5]))
-        # The rulebook serves SPEC §4.3 and places the hips on x; the HUMAN-LIKE serve and the
-        # hips' y replace them.
-        game.reset(envs, receiver=0, base_x=hips[:, :1], theta=0.0)
-        self.bodies.reset(envs, hips[:, :1], 0.0, base_y=hips[:, 1:])
-        pos, vel = sample_serves(u[:, 5:10])
-        game.shuttle.pos[envs], game.shuttle.vel[envs] = pos, vel
-        served = np.zeros(self.n, bool)
-        served[envs] = True
-        game.shuttle.shot(served)
-        game._refresh()
+        # The rulebook serves SPEC §4.3; the HUMAN-LIKE serve replaces it.
+        game.reset(envs, receiver=0, base_x=hips[:, :1], theta=0.0, base_y=hips[:, 1:])
+        game.launch(envs, *sample_serves(u[:, 5:10]))
         self.elapsed[envs] = 0
 
     def observe(self) -> np.ndarray:

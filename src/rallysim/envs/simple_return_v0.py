@@ -152,13 +152,7 @@ class ReturnTask:
         take = np.ones(len(envs), bool) if self.incoming == "rally" else u[:, 0] < 0.5
         if take.any():
             rows = (u[take, 1] * len(self._bank)).astype(np.int64)
-            sh = self.game.shuttle
-            sh.pos[envs[take]] = self._bank[rows, :3]
-            sh.vel[envs[take]] = self._bank[rows, 3:]
-            mask = np.zeros(self.n, bool)
-            mask[envs[take]] = True
-            sh.shot(mask)
-            self.game._refresh()
+            self.game.launch(envs[take], self._bank[rows, :3], self._bank[rows, 3:])
 
     def observe(self) -> np.ndarray:
         obs = np.empty((self.n, OBS_SIZE))
