@@ -182,12 +182,13 @@ def test_scripted_controller_returns_most_serves_near_target():
 
 def test_keep_bodies_carries_the_player_into_the_next_episode():
     env = SimpleReturnVectorEnv(2, max_decisions=3, keep_bodies=True, autoreset_mode="same_step")
-    env.reset(seed=0)
+    env.reset(seed=0, options={"base_x": [-6.0, -5.0], "arm_angle": 0.0})
     game = env.task.game
     for _ in range(3):
         env.step(np.array([[0.5, 1.0, 1.0], [0.5, 1.0, 1.0]]))
-    # the truncated episodes restarted with the bodies as they were: base walked toward the net
-    assert np.all(game.bodies.base_x[:, 0] > -6.5 + 1.4)
+    # the truncated episodes restarted with the bodies as they were: 0.3 s walking at 5 m/s
+    assert game.bodies.base_x[:, 0] == pytest.approx([-4.5, -3.5])
+    assert game.bodies.theta[:, 0] == pytest.approx(np.radians(42.5))
     assert env.task.elapsed.tolist() == [0, 0]
     fresh = SimpleReturnVectorEnv(2, max_decisions=3, autoreset_mode="same_step")
     fresh.reset(seed=0)

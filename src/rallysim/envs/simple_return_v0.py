@@ -127,15 +127,13 @@ class ReturnTask:
         limit = b.limit
         theta = _option(opts, "arm_angle", len(envs), (-limit, limit),
                         lambda: np.array([r.uniform(-limit, limit) for r in rngs]))
-        carry = envs[self._started[envs]] if self.keep_bodies and not opts else envs[:0]
-        if len(carry):  # the original builds: robots stay where the last episode left them
-            j = np.searchsorted(envs, carry) if np.all(np.diff(envs) > 0) else np.array(
-                [np.flatnonzero(envs == c)[0] for c in carry])
-            base_x[j], theta[j] = b.base_x[carry, 0], b.theta[carry, 0]
-            omega = b.omega[carry, 0].copy()
+        # the original builds: robots stay where the last episode left them
+        keep = self._started[envs] & (self.keep_bodies and not opts)
+        carry = envs[keep]
+        base_x[keep], theta[keep] = b.base_x[carry, 0], b.theta[carry, 0]
+        omega = b.omega[carry, 0].copy()
         self.game.reset(envs, receiver=0, base_x=base_x[:, None], theta=theta[:, None])
-        if len(carry):
-            b.omega[carry, 0] = omega
+        b.omega[carry, 0] = omega
         self._started[envs] = True
         if self.incoming != "serve":
             self._player_shots(envs, rngs)
