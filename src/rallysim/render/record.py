@@ -11,7 +11,7 @@ from rallysim.core.game import PHYSICS_DT, PHYSICS_STEPS_PER_DECISION
 from rallysim.envs.rally_task import RALLY_OBS_SIZE, RallyConfig, RallyTask
 from rallysim.envs.simple_return_v0 import SimpleReturnEnv
 from rallysim.envs.turn_task import LowLevel, resolve_low_level
-from rallysim.policies.scripted import ScriptedController
+from rallysim.policies.resolve import low_level_policy
 from rallysim.render.scene import SceneRenderer
 
 POLICIES = ("scripted", "random")
@@ -49,13 +49,9 @@ def record_low_level(n_episodes: int = 1, policy: str | Policy = "scripted", see
 
 
 def _policy(name: str | Policy, seed: int) -> Policy:
-    if callable(name):
-        return lambda obs: np.asarray(name(obs[None, :]))[0]
-    if name == "scripted":
-        controller = ScriptedController()
-        return lambda obs: controller.act_return(obs[None, :])[0]
-    rng = np.random.default_rng(seed)
-    return lambda obs: rng.uniform(-1.0, 1.0, 3)
+    """One observation -> one action, from a batched policy or a shipped one's name."""
+    batched = name if callable(name) else low_level_policy(name, seed)
+    return lambda obs: np.asarray(batched(obs[None, :]))[0]
 
 
 def _episode(env: SimpleReturnEnv, view: SceneRenderer, act: Policy, seed: int, title: str,
