@@ -88,3 +88,14 @@ def test_render_writes_video_gif_and_strip(tmp_path):
     assert mp4.shape[1:3] == (96, 160) and 8 <= len(mp4) <= 200
     assert strip.shape[0] < strip.shape[1]  # one row of 4 stills
     assert (tmp_path / "low_scripted.gif").stat().st_size > 1000
+
+
+def test_training_commands_name_the_missing_extra(monkeypatch, capsys):
+    import importlib.util
+
+    real = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec",
+                        lambda name, *a: None if name == "stable_baselines3" else real(name, *a))
+    assert main(["reproduce", "--budget", "smoke"]) == 2
+    assert main(["train", "low"]) == 2
+    assert "missing: stable_baselines3" in capsys.readouterr().err

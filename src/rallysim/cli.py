@@ -95,15 +95,25 @@ def _play(args: argparse.Namespace) -> int:
     return 0
 
 
+def _missing_train_extra(command: str) -> bool:
+    """Say so (and return True) when the packages of the ``train`` extra are not installed."""
+    import importlib.util
+
+    missing = [m for m in ("torch", "stable_baselines3", "yaml", "tqdm")
+               if importlib.util.find_spec(m) is None]
+    if missing:
+        print(f"rallysim {command} needs the train extra (missing: {', '.join(missing)}): "
+              "pip install torch==2.13.0 && pip install 'rallysim[train]'", file=sys.stderr)
+    return bool(missing)
+
+
 def _train(args: argparse.Namespace) -> int:
     """Train one stage (low, high, mono) with Stable-Baselines3 PPO; resumable."""
-    try:
-        from rallysim.train.config import load_config, parse_overrides
-        from rallysim.train.runner import train_stage
-    except ImportError as err:
-        print(f"training needs the train extra: pip install 'rallysim[train]' ({err})",
-              file=sys.stderr)
+    if _missing_train_extra("train"):
         return 2
+    from rallysim.train.config import load_config, parse_overrides
+    from rallysim.train.runner import train_stage
+
     overrides = parse_overrides(args.set)
     for key in ("decisions", "seed", "shuttle", "low_policy", "env"):
         value = getattr(args, key, None)
@@ -120,12 +130,10 @@ def _train(args: argparse.Namespace) -> int:
 
 def _reproduce(args: argparse.Namespace) -> int:
     """Train every stage and baseline on the chosen budget and write the Table VII report."""
-    try:
-        from rallysim.train.reproduce import BUDGETS, run_reproduce
-    except ImportError as err:
-        print(f"reproduce needs the train extra: pip install 'rallysim[train]' ({err})",
-              file=sys.stderr)
+    if _missing_train_extra("reproduce"):
         return 2
+    from rallysim.train.reproduce import BUDGETS, run_reproduce
+
     results = run_reproduce(BUDGETS[args.budget], Path(args.out), workers=args.workers)
     print((Path(args.out) / "report.md").read_text())
     return 0 if results else 1
