@@ -91,7 +91,6 @@ class Game:
         self._hi = np.stack([half] * p + [net_hi, floor_hi])
         self._fwd = self.bodies.forward  # (N, P)
         self._own_buf = np.zeros((n, p, 3))
-        self._face_buf = np.zeros((n, p, 3))
         self._q = np.zeros((n, p + 2, 3))  # tested points at the end of the step
         self._q0 = np.zeros((n, p + 2, 3))  # ... and at its start
         self._gap = np.zeros((n, p))  # |base x - shuttle x| for shaping
@@ -174,8 +173,7 @@ class Game:
         across, along the arm) in columns [0, P), and in the world in the net and floor columns."""
         own, q, P = self._own_buf, self._q, self.n_players
         self._own_into(self.shuttle.pos, own)
-        self.bodies.to_face_frame(own, self._face_buf)
-        q[:, :P] = self._face_buf
+        self.bodies.to_face_frame(own, q[:, :P])
         q[:, P] = self.shuttle.pos
         q[:, P + 1] = self.shuttle.pos
 

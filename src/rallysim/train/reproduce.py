@@ -77,6 +77,7 @@ def train_seed(seed: int, budget: Budget, out: Path, queue: Any = None) -> dict[
     """Train the three stages of one seed (each resumes or is skipped when already done)."""
     from rallysim.train.config import load_config
     from rallysim.train.runner import train_stage
+    from rallysim.train.stages import headline
 
     curves: dict[str, Any] = {}
     small = {"n_envs": 32, "n_steps": 16, "batch_size": 256, "eval_episodes": 16,
@@ -104,8 +105,6 @@ def train_seed(seed: int, budget: Budget, out: Path, queue: Any = None) -> dict[
         t = time.perf_counter()
         _say(queue, f"[seed {seed}] {stage}: training {config.decisions:,} steps ...")
         curves[stage] = train_stage(config, run, progress=False)
-        from rallysim.train.stages import headline
-
         _say(queue, f"[seed {seed}] {stage}: done in {time.perf_counter() - t:.0f} s, "
                     + headline(config, curves[stage]["final"]))
     return curves
