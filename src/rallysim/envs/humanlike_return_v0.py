@@ -85,7 +85,7 @@ from rallysim.envs.humanlike_obs import HIPS, PLAYER_OBS_SIZE, SHUTTLE, player_o
 from rallysim.envs.rendering import RENDER_MODES, EnvView
 from rallysim.envs.simple_obs import POSITION_CENTRE, POSITION_SCALE, SHUTTLE_SPEED_SCALE
 from rallysim.envs.task_env import TaskEnv, box_spaces
-from rallysim.envs.validation import check_options
+from rallysim.envs.validation import check_options, option_values
 from rallysim.envs.vector_base import NEXT_STEP, TaskVectorEnv
 
 OBS_SIZE = PLAYER_OBS_SIZE + 3  # 85
@@ -202,20 +202,9 @@ class HumanLikeReturnTask:
 
 def _vector_option(opts: dict, key: str, k: int, size: int, bounds: np.ndarray,
                    drawn: np.ndarray) -> np.ndarray:
-    """Option ``key`` as (k, size) values checked against ``bounds`` (size, 2), else ``drawn``."""
-    if key not in opts:
-        return drawn
-    try:
-        value = np.broadcast_to(np.asarray(opts[key], dtype=np.float64), (k, size)).copy()
-    except (TypeError, ValueError):
-        raise ValueError(f"option {key!r} must be {size} numbers or one row of {size} per "
-                         f"environment, got {opts[key]!r}") from None
-    if not np.all(np.isfinite(value)):
-        raise ValueError(f"option {key!r} must be finite, got {opts[key]!r}")
-    if np.any(value < bounds[:, 0] - 1e-9) or np.any(value > bounds[:, 1] + 1e-9):
-        ranges = ", ".join(f"[{lo:.4g}, {hi:.4g}]" for lo, hi in bounds)
-        raise ValueError(f"option {key!r} must lie in {ranges}, got {opts[key]!r}")
-    return value
+    """Option ``key`` as (k, size) checked values, else ``drawn``."""
+    value = option_values(opts, key, (k, size), bounds)
+    return drawn if value is None else value
 
 
 def _spaces() -> tuple[spaces.Box, spaces.Box]:

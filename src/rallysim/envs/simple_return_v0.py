@@ -75,7 +75,7 @@ from rallysim.envs.simple_obs import (
     player_observations,
 )
 from rallysim.envs.task_env import TaskEnv, box_spaces
-from rallysim.envs.validation import check_options
+from rallysim.envs.validation import check_options, option_values
 from rallysim.envs.vector_base import NEXT_STEP, TaskVectorEnv
 
 OBS_SIZE = PLAYER_OBS_SIZE + 1
@@ -191,16 +191,9 @@ class ReturnTask:
 
 
 def _option(opts: dict, key: str, k: int, bounds: tuple[float, float], draw) -> np.ndarray:
-    """Option ``key`` as k values checked against ``bounds``, or ``draw()`` when absent."""
-    if key not in opts:
-        return draw()
-    value = np.broadcast_to(np.asarray(opts[key], dtype=np.float64), (k,)).copy()
-    if not np.all(np.isfinite(value)):
-        raise ValueError(f"option {key!r} must be finite, got {opts[key]!r}")
-    lo, hi = bounds
-    if np.any(value < lo - 1e-9) or np.any(value > hi + 1e-9):
-        raise ValueError(f"option {key!r} must lie in [{lo:.4g}, {hi:.4g}], got {opts[key]!r}")
-    return value
+    """Option ``key`` as k checked values, or ``draw()`` when absent."""
+    value = option_values(opts, key, (k,), bounds)
+    return draw() if value is None else value
 
 
 def _spaces() -> tuple[spaces.Box, spaces.Box]:

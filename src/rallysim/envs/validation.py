@@ -39,3 +39,24 @@ def check_options(options: dict[str, Any] | None, valid: Iterable[str]) -> dict[
     if unknown:
         raise ValueError(f"unknown reset option(s) {unknown}; valid options: {list(valid)}")
     return options
+
+
+def option_values(opts: dict[str, Any], key: str, shape: tuple[int, ...],
+                  bounds: Any) -> np.ndarray | None:
+    """Reset option ``key`` broadcast to ``shape`` ((k,) or (k, size)), finite and within
+    ``bounds`` ((lo, hi), or one (lo, hi) row per component); None when it was not given."""
+    if key not in opts:
+        return None
+    try:
+        value = np.broadcast_to(np.asarray(opts[key], dtype=np.float64), shape).copy()
+    except (TypeError, ValueError):
+        per = f"{shape[1]} numbers or one row of {shape[1]}" if len(shape) > 1 else "a number"
+        raise ValueError(f"option {key!r} must be {per} (or one per environment), got "
+                         f"{opts[key]!r}") from None
+    if not np.all(np.isfinite(value)):
+        raise ValueError(f"option {key!r} must be finite, got {opts[key]!r}")
+    b = np.atleast_2d(np.asarray(bounds, dtype=np.float64))
+    if np.any(value < b[:, 0] - 1e-9) or np.any(value > b[:, 1] + 1e-9):
+        ranges = ", ".join(f"[{lo:.4g}, {hi:.4g}]" for lo, hi in b)
+        raise ValueError(f"option {key!r} must lie in {ranges}, got {opts[key]!r}")
+    return value

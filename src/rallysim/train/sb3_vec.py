@@ -37,10 +37,7 @@ from stable_baselines3.common.vec_env.base_vec_env import (
     VecEnvStepReturn,
 )
 
-
-def _mode_name(venv: VectorEnv) -> str:
-    mode = venv.metadata.get("autoreset_mode", "NextStep")
-    return str(getattr(mode, "value", mode))
+from rallysim.envs.vector_base import parse_autoreset_mode
 
 
 class NativeVecEnv(VecEnv):
@@ -52,9 +49,10 @@ class NativeVecEnv(VecEnv):
     """
 
     def __init__(self, venv: VectorEnv) -> None:
-        if _mode_name(venv) not in ("SameStep", "same_step"):
+        mode = parse_autoreset_mode(venv.metadata.get("autoreset_mode", "next_step"))
+        if mode != "same_step":
             raise ValueError("NativeVecEnv needs a vector env with autoreset_mode='same_step', "
-                             f"got {_mode_name(venv)!r}")
+                             f"got {mode!r}")
         if not isinstance(venv.single_action_space, gym.spaces.Box):
             raise TypeError("NativeVecEnv supports Box action spaces only")
         self.venv = venv
