@@ -135,5 +135,41 @@ def test_humanlike_low_level_trains_and_reports_its_errors(tmp_path):
     assert policy(np.zeros((2, 85), np.float32)).shape == (2, 15)
     assert json.loads((tmp_path / "policy.json").read_text())["env_id"] == (
         "RallySim/HumanLikeReturn-v0")
-    with pytest.raises(ValueError, match="low-level stage only"):
-        load_config("high", None, {"env": "humanlike"})
+    with pytest.raises(ValueError, match="no monolithic"):
+        load_config("mono", None, {"env": "humanlike", "n_envs": 16})
+
+
+def test_humanlike_warm_start_clones_aimed_swing_with_dagger(tmp_path):
+    """The HUMAN-LIKE warm start fits the actor to AimedSwing (then DAgger on its own states):
+    its actions move toward the teacher's on fresh serves."""
+    from rallysim.envs.humanlike_return_v0 import HumanLikeReturnVectorEnv
+    from rallysim.policies.aimed_swing import AimedSwing
+
+    config = load_config("low", None, {**TINY, "env": "humanlike", "warm_start": "scripted",
+                                       "warm_start_decisions": 8192, "warm_start_epochs": 20,
+                                       "warm_start_dagger": 1})
+    model = build_model(config, tmp_path)
+    env = HumanLikeReturnVectorEnv(64, seed=99)
+    obs, _ = env.reset(seed=99)
+    teacher = AimedSwing()(obs)
+    before = np.mean((model.predict(obs, deterministic=True)[0] - teacher) ** 2)
+    from rallysim.train.runner import warm_start
+
+    result = warm_start(model, config, progress=False)
+    after = np.mean((model.predict(obs, deterministic=True)[0] - teacher) ** 2)
+    assert result["teacher"] == "AimedSwing"
+    # the clone's 8192 decisions, then one DAgger round's 2048, less the unfinished episodes
+    assert 0.3 * (8192 + 2048) < result["samples"] <= 8192 + 2048
+    assert after < 0.5 * before
+
+
+def test_humanlike_high_level_trains_over_the_scripted_low_level(tmp_path):
+    overrides = {**TINY, "decisions": 256, "n_envs": 8, "n_steps": 32, "batch_size": 128,
+                 "eval_episodes": 8, "env": "humanlike", "low_policy": "scripted"}
+    curve = train_stage(load_config("high", None, overrides), tmp_path, progress=False)
+    assert curve["decisions_simulated"] > 5 * curve["steps"]  # a turn spans many decisions
+    assert curve["final"]["mean_rally"] >= 10  # the issue's target
+    policy = load_policy(tmp_path / "policy")
+    assert policy(np.zeros((2, 86), np.float32)).shape == (2, 3)
+    doc = json.loads((tmp_path / "policy.json").read_text())
+    assert doc["env_id"] == "rallysim.envs.humanlike_rally_v0:HumanLikeRallyTurnVectorEnv"

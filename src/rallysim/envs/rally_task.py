@@ -15,6 +15,7 @@ won by 2, capped at 30; one episode is one game. A rally reaching the hit cap is
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -50,7 +51,17 @@ class RallyConfig:
 
 
 class RallyTask:
-    """N rallies (or competitive games) of two SIMPLE players."""
+    """N rallies (or competitive games) of two SIMPLE players.
+
+    The player-specific parts (bodies, serve and start, the per-player observation, the goal
+    a turn-based high level gives the low level) are the hooks below; ``HumanLikeRallyTask``
+    overrides them for the HUMAN-LIKE player, the rules stay the same."""
+
+    player = "simple"
+    obs_size = RALLY_OBS_SIZE
+    action_size = 3
+    goal_size = 1  # the landing depth (m) of the turn-based view
+    default_goal = (4.0,)
 
     def __init__(self, num_rallies: int, config: RallyConfig | None = None,
                  seed: int | None = None) -> None:
@@ -59,7 +70,7 @@ class RallyTask:
         # The original game re-armed both rackets on a net touch (the shuttle flies on through);
         # the realistic shuttle is blocked by the net instead.
         self.game = Game(num_rallies, 2, shuttle=config.shuttle, seed=seed,
-                         rearm_on_net=config.shuttle != "aero")
+                         rearm_on_net=config.shuttle != "aero", bodies=self._bodies(num_rallies))
         self.competitive = config.mode == "competitive"
         n = num_rallies
         self.elapsed = np.zeros(n, np.int64)  # decisions in the current rally
@@ -77,29 +88,54 @@ class RallyTask:
 
     def _start_rally(self, envs: np.ndarray) -> None:
         receiver = 1 - self.server[envs]
-        base = np.broadcast_to(np.array(START_BASE_X), (len(envs), 2))
-        self.game.reset(envs, receiver=receiver, base_x=base, theta=0.0)
+        self._serve(envs, receiver)
         self.elapsed[envs] = 0
         self.turn_started[envs] = False
         self.turn_started[envs, receiver] = True
 
+    # -- the player's hooks ---------------------------------------------------------------------
+    def _bodies(self, n: int) -> Any:
+        return None  # the Game's default: SIMPLE bodies
+
+    def _serve(self, envs: np.ndarray, receiver: np.ndarray) -> None:
+        """Place both players and serve toward ``receiver`` (SPEC §7, §4.3)."""
+        base = np.broadcast_to(np.array(START_BASE_X), (len(envs), 2))
+        self.game.reset(envs, receiver=receiver, base_x=base, theta=0.0)
+
+    def _player_observations(self) -> np.ndarray:
+        """(N, 2, obs_size - 4) what each player observes of itself and the shuttle."""
+        return player_observations(self.game)
+
+    def _opponent_position(self) -> np.ndarray:
+        """(N, 2, 3) the opponent's base in each player's own frame."""
+        g = self.game
+        opp = np.zeros((self.n, 2, 3))
+        opp[..., 0] = -g.bodies.base_x[:, ::-1]  # its own-frame x, turned 180 degrees about z
+        opp[..., 2] = g.bodies.base_z
+        return opp
+
+    @staticmethod
+    def clip_goals(goals: np.ndarray) -> np.ndarray:
+        """The turn-based view's goals as finite depths clipped to [2, 6] m."""
+        from rallysim.envs.simple_obs import TARGET_DEPTH_RANGE
+
+        return np.clip(_finite_goals(goals), *TARGET_DEPTH_RANGE)
+
     # -- views ----------------------------------------------------------------------------------
     def observe(self) -> np.ndarray:
-        """(N, 2, 20) float32 observations, each in its player's own frame, in [-1, 1]."""
+        """(N, 2, obs_size) float32 observations, each in its player's own frame, in [-1, 1]:
+        the player's own, the opponent's base position, and "my turn" (armed)."""
         g = self.game
-        obs = np.empty((self.n, 2, RALLY_OBS_SIZE))
-        obs[..., :PLAYER_OBS_SIZE] = player_observations(g)
-        # the opponent's base in my frame: its own-frame x, turned 180 degrees about z
-        opp = np.zeros((self.n, 2, 3))
-        opp[..., 0] = -g.bodies.base_x[:, ::-1]
-        opp[..., 2] = g.bodies.base_z
-        obs[..., PLAYER_OBS_SIZE:PLAYER_OBS_SIZE + 3] = normalise_position(opp)
-        obs[..., PLAYER_OBS_SIZE + 3] = g.armed
+        k = self.obs_size - 4
+        obs = np.empty((self.n, 2, self.obs_size))
+        obs[..., :k] = self._player_observations()
+        obs[..., k:k + 3] = normalise_position(self._opponent_position())
+        obs[..., k + 3] = g.armed
         return np.clip(obs, -1.0, 1.0).astype(np.float32)
 
     # -- one decision ---------------------------------------------------------------------------
     def step(self, actions: np.ndarray, active: np.ndarray | None = None):
-        """Advance the rallies by one decision with clipped ``actions`` (N, 2, 3).
+        """Advance the rallies by one decision with clipped ``actions`` (N, 2, action_size).
 
         Returns ``(rewards (N, 2), terminated (N,), truncated (N,), info)``. In competitive mode a
         finished point that does not end the game starts the next rally at once; ``info`` tells
@@ -161,3 +197,10 @@ class RallyTask:
         hi = self.score[envs].max(axis=1)
         lo = self.score[envs].min(axis=1)
         return ((hi >= cfg.points_to_win) & (hi - lo >= cfg.win_by)) | (hi >= cfg.max_points)
+
+
+def _finite_goals(goals: np.ndarray) -> np.ndarray:
+    g = np.asarray(goals, dtype=np.float64)
+    if not np.all(np.isfinite(g)):
+        raise ValueError(f"goals must be finite, got {goals!r}")
+    return g

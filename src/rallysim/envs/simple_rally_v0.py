@@ -66,7 +66,7 @@ import numpy as np
 from gymnasium import spaces
 from pettingzoo import AECEnv, ParallelEnv
 
-from rallysim.envs.rally_task import RALLY_OBS_SIZE, RallyConfig, RallyTask
+from rallysim.envs.rally_task import RallyConfig, RallyTask
 from rallysim.envs.rendering import RENDER_MODES, EnvView
 from rallysim.envs.simple_obs import TARGET_DEPTH_RANGE
 from rallysim.envs.turn_task import LowLevel, TurnTask
@@ -79,22 +79,26 @@ PER_PLAYER_INFO = ("hit", "racket_speed", "hit_point")
 SCORE_INFO = ("score",)
 
 
-def _obs_space() -> spaces.Box:
-    return spaces.Box(-1.0, 1.0, (RALLY_OBS_SIZE,), np.float32)
+def _obs_space(rally: type[RallyTask] = RallyTask) -> spaces.Box:
+    return spaces.Box(-1.0, 1.0, (rally.obs_size,), np.float32)
 
 
-def _act_space() -> spaces.Box:
-    return spaces.Box(-1.0, 1.0, (ACTION_SIZE,), np.float32)
+def _act_space(rally: type[RallyTask] = RallyTask) -> spaces.Box:
+    return spaces.Box(-1.0, 1.0, (rally.action_size,), np.float32)
 
 
-def _goal_space() -> spaces.Box:
-    return spaces.Box(*TARGET_DEPTH_RANGE, (1,), np.float32)
+def _goal_space(rally: type[RallyTask] = RallyTask) -> spaces.Box:
+    if rally.goal_size == 1:
+        return spaces.Box(*TARGET_DEPTH_RANGE, (1,), np.float32)
+    return spaces.Box(-1.0, 1.0, (rally.goal_size,), np.float32)
 
 
 def render_rally(view: EnvView, task: RallyTask, env: int,
                  goals: np.ndarray | None = None) -> np.ndarray | None:
     score = task.score[env]
     hud = f"rally {int(task.game.hits[env])}   score {score[0]}-{score[1]}"
+    if task.goal_size != 1:  # the landing-depth markers are SIMPLE's
+        goals = None
     return view.render(task.game, env, None if goals is None else list(goals), hud)
 
 
@@ -126,11 +130,11 @@ def _slot_info(info: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
     return out
 
 
-def _ignore_options(options: dict | None) -> None:
+def _ignore_options(options: dict | None, name: str) -> None:
     """PettingZoo's API test requires envs to accept any reset options; ours take none, so
     say so instead of failing."""
     if options:
-        warnings.warn(f"simple_rally_v0 takes no reset options; ignoring {sorted(options)}",
+        warnings.warn(f"{name} takes no reset options; ignoring {sorted(options)}",
                       stacklevel=3)
 
 
@@ -151,15 +155,16 @@ class SimpleRallyParallelEnv(ParallelEnv):
     """One rally, both players acting every decision. See the module docstring."""
 
     metadata = {"name": "simple_rally_v0", "render_modes": RENDER_MODES, "render_fps": 10}
+    rally: type[RallyTask] = RallyTask
 
     def __init__(self, render_mode: str | None = None, **config: Any) -> None:
-        self._view = EnvView(render_mode, n_players=2)
-        self.task = RallyTask(1, RallyConfig(**config))
+        self._view = EnvView(render_mode, n_players=2, player=self.rally.player)
+        self.task = self.rally(1, RallyConfig(**config))
         self.possible_agents = list(AGENTS)
         self.agents: list[str] = []
         self.render_mode = render_mode
-        self.observation_spaces = {a: _obs_space() for a in AGENTS}
-        self.action_spaces = {a: _act_space() for a in AGENTS}
+        self.observation_spaces = {a: _obs_space(self.rally) for a in AGENTS}
+        self.action_spaces = {a: _act_space(self.rally) for a in AGENTS}
 
     def observation_space(self, agent: str) -> spaces.Box:
         return self.observation_spaces[agent]
@@ -168,7 +173,7 @@ class SimpleRallyParallelEnv(ParallelEnv):
         return self.action_spaces[agent]
 
     def reset(self, seed: int | None = None, options: dict | None = None):
-        _ignore_options(options)
+        _ignore_options(options, self.metadata["name"])
         if seed is not None:
             self.task.game.seed(np.array([0]), seed)
         self.task.reset(np.array([0]))
@@ -188,7 +193,8 @@ class SimpleRallyParallelEnv(ParallelEnv):
 
     def step(self, actions: dict[str, Any]):
         _check_agent_actions(actions, self.agents)
-        a = np.stack([validate_actions(actions[agent], (ACTION_SIZE,)) for agent in AGENTS])
+        size = self.rally.action_size
+        a = np.stack([validate_actions(actions[agent], (size,)) for agent in AGENTS])
         rewards, term, trunc, info = self.task.step(a[None])
         obs = self.task.observe()[0]
         agents = list(self.agents)
@@ -222,19 +228,22 @@ class SimpleRallyVectorEnv(NativeVectorEnv):
 
     metadata = {"render_modes": RENDER_MODES, "render_fps": 10, "autoreset_mode": NEXT_STEP}
     slots_per_unit = 2
+    rally: type[RallyTask] = RallyTask
 
     def __init__(self, num_rallies: int = 1, autoreset_mode: str = "next_step",
                  seed: int | None = None, render_mode: str | None = None,
                  **config: Any) -> None:
         self._setup(num_rallies, autoreset_mode)
         self.render_mode = render_mode
-        self._view = EnvView(render_mode, n_players=2)
+        self._view = EnvView(render_mode, n_players=2, player=self.rally.player)
         self._views = [self._view]
-        self.task = RallyTask(self.num_units, RallyConfig(**config), seed)
-        self.single_observation_space, self.single_action_space = _obs_space(), _act_space()
-        self.observation_space = spaces.Box(-1.0, 1.0, (self.num_envs, RALLY_OBS_SIZE),
+        self.task = self.rally(self.num_units, RallyConfig(**config), seed)
+        self.single_observation_space = _obs_space(self.rally)
+        self.single_action_space = _act_space(self.rally)
+        self.observation_space = spaces.Box(-1.0, 1.0, (self.num_envs, self.rally.obs_size),
                                             np.float32)
-        self.action_space = spaces.Box(-1.0, 1.0, (self.num_envs, ACTION_SIZE), np.float32)
+        self.action_space = spaces.Box(-1.0, 1.0, (self.num_envs, self.rally.action_size),
+                                       np.float32)
 
     def _seed_units(self, seeds: list[int]) -> None:
         for e, s in enumerate(seeds):
@@ -246,12 +255,13 @@ class SimpleRallyVectorEnv(NativeVectorEnv):
         self.task.reset(units)
 
     def _step_units(self, actions):
-        a = validate_actions(actions, (self.num_envs, ACTION_SIZE))
-        rewards, term, trunc, info = self.task.step(a.reshape(self.num_units, 2, ACTION_SIZE))
+        size = self.rally.action_size
+        a = validate_actions(actions, (self.num_envs, size))
+        rewards, term, trunc, info = self.task.step(a.reshape(self.num_units, 2, size))
         return rewards.reshape(-1), term, trunc, _slot_info(info)
 
     def _observe(self) -> np.ndarray:
-        return self.task.observe().reshape(self.num_envs, RALLY_OBS_SIZE)
+        return self.task.observe().reshape(self.num_envs, self.rally.obs_size)
 
     def render(self) -> tuple[np.ndarray, ...] | None:
         """A frame of rally 0 (``"rgb_array"``)."""
@@ -267,17 +277,18 @@ class SimpleRallyTurnAECEnv(AECEnv):
 
     metadata = {"name": "simple_rally_turn_v0", "render_modes": RENDER_MODES,
                 "is_parallelizable": False, "render_fps": 1}
+    rally: type[RallyTask] = RallyTask
 
     def __init__(self, low_level: LowLevel | str = "scripted", render_mode: str | None = None,
                  **config: Any) -> None:
         super().__init__()
-        self._view = EnvView(render_mode, n_players=2)
-        self.turns = TurnTask(1, low_level, RallyConfig(**config))
+        self._view = EnvView(render_mode, n_players=2, player=self.rally.player)
+        self.turns = TurnTask(1, low_level, RallyConfig(**config), rally=self.rally)
         self.possible_agents = list(AGENTS)
         self.agents = []
         self.render_mode = render_mode
-        self.observation_spaces = {a: _obs_space() for a in AGENTS}
-        self.action_spaces = {a: _goal_space() for a in AGENTS}
+        self.observation_spaces = {a: _obs_space(self.rally) for a in AGENTS}
+        self.action_spaces = {a: _goal_space(self.rally) for a in AGENTS}
 
     def observation_space(self, agent: str) -> spaces.Box:
         return self.observation_spaces[agent]
@@ -289,7 +300,7 @@ class SimpleRallyTurnAECEnv(AECEnv):
         return self.turns.rally.observe()[0, AGENTS.index(agent)]
 
     def reset(self, seed: int | None = None, options: dict | None = None) -> None:
-        _ignore_options(options)
+        _ignore_options(options, self.metadata["name"])
         if seed is not None:
             self.turns.rally.game.seed(np.array([0]), seed)
         self.turns.reset(np.array([0]))
@@ -315,8 +326,10 @@ class SimpleRallyTurnAECEnv(AECEnv):
             self._was_dead_step(action)
             return
         goal = np.asarray(action, dtype=np.float64).reshape(-1)
-        if goal.shape != (1,):
-            raise ValueError(f"the action is one goal depth, shape (1,), got {np.shape(action)}")
+        size = self.rally.goal_size
+        if goal.shape != (size,):
+            raise ValueError(f"the action is one goal, shape ({size},), got {np.shape(action)}")
+        goal = goal if size > 1 else goal[0:1]
         self._cumulative_rewards[agent] = 0.0
         out = self.turns.step(goal)
         for i, a in enumerate(AGENTS):
@@ -347,6 +360,7 @@ class SimpleRallyTurnVectorEnv(NativeVectorEnv):
     span's cooperative reward; ``info["decisions"]`` is the span's length."""
 
     metadata = {"render_modes": RENDER_MODES, "render_fps": 1, "autoreset_mode": NEXT_STEP}
+    rally: type[RallyTask] = RallyTask
 
     def __init__(self, num_envs: int = 1, low_level: LowLevel | str = "scripted",
                  autoreset_mode: str = "next_step", seed: int | None = None,
@@ -357,14 +371,16 @@ class SimpleRallyTurnVectorEnv(NativeVectorEnv):
                              "the competitive game")
         self._setup(num_envs, autoreset_mode)
         self.render_mode = render_mode
-        self._view = EnvView(render_mode, n_players=2)
+        self._view = EnvView(render_mode, n_players=2, player=self.rally.player)
         self._views = [self._view]
-        self.turns = TurnTask(self.num_units, low_level, cfg, seed)
+        self.turns = TurnTask(self.num_units, low_level, cfg, seed, rally=self.rally)
         self.decisions_simulated = 0  # low-level decisions run inside all turns so far
-        self.single_observation_space, self.single_action_space = _obs_space(), _goal_space()
-        self.observation_space = spaces.Box(-1.0, 1.0, (self.num_envs, RALLY_OBS_SIZE),
+        goal = _goal_space(self.rally)
+        self.single_observation_space, self.single_action_space = _obs_space(self.rally), goal
+        self.observation_space = spaces.Box(-1.0, 1.0, (self.num_envs, self.rally.obs_size),
                                             np.float32)
-        self.action_space = spaces.Box(*TARGET_DEPTH_RANGE, (self.num_envs, 1), np.float32)
+        self.action_space = spaces.Box(goal.low[0], goal.high[0],
+                                       (self.num_envs, self.rally.goal_size), np.float32)
 
     def _seed_units(self, seeds: list[int]) -> None:
         for e, s in enumerate(seeds):
@@ -376,14 +392,21 @@ class SimpleRallyTurnVectorEnv(NativeVectorEnv):
         self.turns.reset(units)
 
     def _step_units(self, actions):
-        goals = np.asarray(actions, dtype=np.float64).reshape(-1)
-        if goals.shape != (self.num_envs,):
-            raise ValueError(f"actions must hold one goal per rally, shape ({self.num_envs}, 1), "
-                             f"got {np.shape(actions)}")
+        size = self.rally.goal_size
+        goals = np.asarray(actions, dtype=np.float64)
+        if goals.size != self.num_envs * size:
+            raise ValueError(f"actions must hold one goal per rally, shape ({self.num_envs}, "
+                             f"{size}), got {np.shape(actions)}")
+        goals = goals.reshape(self.num_envs, size)
+        if size == 1:
+            goals = goals[:, 0]
         # rallies waiting for their next-step reset do not play
         playing = np.setdiff1d(np.arange(self.num_units), self._pending)
-        out = self.turns.step(np.nan_to_num(goals, nan=4.0) if len(self._pending) else goals,
-                              playing)
+        if len(self._pending):
+            goals = goals.copy()
+            goals[self._pending] = self.rally.default_goal if size > 1 \
+                else self.rally.default_goal[0]
+        out = self.turns.step(goals, playing)
         acted = out["acted"]
         self.decisions_simulated += int(out["decisions"].sum())
         reward = out["reward"][np.arange(self.num_envs), acted]
@@ -407,13 +430,14 @@ class SimpleRallyTurnEnv(gym.Env):
     """One cooperative turn-based rally as a single-agent Gymnasium env (one shared policy)."""
 
     metadata = {"render_modes": RENDER_MODES, "render_fps": 1}
+    vector_env: type[SimpleRallyTurnVectorEnv] = SimpleRallyTurnVectorEnv
 
     def __init__(self, low_level: LowLevel | str = "scripted", render_mode: str | None = None,
                  **config: Any) -> None:
         self.render_mode = render_mode
-        self.vec = SimpleRallyTurnVectorEnv(1, low_level=low_level, render_mode=render_mode,
-                                            **config)
-        self.observation_space, self.action_space = _obs_space(), _goal_space()
+        self.vec = self.vector_env(1, low_level=low_level, render_mode=render_mode, **config)
+        rally = self.vec.rally
+        self.observation_space, self.action_space = _obs_space(rally), _goal_space(rally)
         self._done = True
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):

@@ -14,11 +14,10 @@ from collections.abc import Callable
 
 import numpy as np
 
-from rallysim.envs.rally_task import RALLY_OBS_SIZE, RallyConfig, RallyTask
-from rallysim.envs.simple_obs import TARGET_DEPTH_RANGE
+from rallysim.envs.rally_task import RallyConfig, RallyTask
 
 LowLevel = Callable[[np.ndarray, np.ndarray], np.ndarray]
-DEFAULT_GOAL = 4.0
+DEFAULT_GOAL = RallyTask.default_goal[0]
 
 
 def resolve_low_level(low_level: LowLevel | str, seed: int | None = None) -> LowLevel:
@@ -40,31 +39,35 @@ def resolve_low_level(low_level: LowLevel | str, seed: int | None = None) -> Low
 
 def clip_goals(goals: np.ndarray) -> np.ndarray:
     """Goals as finite depths clipped to [2, 6] m; NaN or inf raise ``ValueError``."""
-    g = np.asarray(goals, dtype=np.float64)
-    if not np.all(np.isfinite(g)):
-        raise ValueError(f"goals must be finite landing depths in metres, got {goals!r}")
-    return np.clip(g, *TARGET_DEPTH_RANGE)
+    return RallyTask.clip_goals(goals)
 
 
 class TurnTask:
-    """N rallies advanced turn by turn."""
+    """N rallies advanced turn by turn. ``rally`` is the rally core's class (``RallyTask`` for
+    SIMPLE players); its ``goal_size`` says what one goal holds."""
 
     def __init__(self, num_rallies: int, low_level: LowLevel | str = "scripted",
-                 config: RallyConfig | None = None, seed: int | None = None) -> None:
-        self.rally = RallyTask(num_rallies, config, seed)
-        self.low_level = resolve_low_level(low_level, seed)
+                 config: RallyConfig | None = None, seed: int | None = None,
+                 rally: type[RallyTask] = RallyTask) -> None:
+        self.rally = rally(num_rallies, config, seed)
+        resolve = getattr(rally, "resolve_low_level", None)
+        self.low_level = (resolve or resolve_low_level)(low_level, seed)
         self.n = num_rallies
-        self.goals = np.full((num_rallies, 2), DEFAULT_GOAL)
+        # (N, 2) depths for SIMPLE players; (N, 2, goal_size) where a goal holds more
+        size = rally.goal_size
+        self.goals = np.empty((num_rallies, 2) + ((size,) if size > 1 else ()))
+        self.goals[:] = rally.default_goal if size > 1 else rally.default_goal[0]
         self.turn_player = np.zeros(num_rallies, np.int64)
 
     def reset(self, envs: np.ndarray) -> None:
         envs = np.asarray(envs, np.int64)
         self.rally.reset(envs)
-        self.goals[envs] = DEFAULT_GOAL
+        self.goals[envs] = self.rally.default_goal if self.goals.ndim > 2 \
+            else self.rally.default_goal[0]
         self.turn_player[envs] = self.rally.turn_started[envs].argmax(axis=1)
 
     def observe(self) -> np.ndarray:
-        """(N, 20) observation of each rally's turn player, in its own frame."""
+        """(N, obs_size) observation of each rally's turn player, in its own frame."""
         return self.rally.observe()[np.arange(self.n), self.turn_player]
 
     def step(self, goals: np.ndarray, envs: np.ndarray | None = None) -> dict[str, np.ndarray]:
@@ -78,7 +81,8 @@ class TurnTask:
         running[np.arange(n) if envs is None else np.asarray(envs)] = True
         rows = np.flatnonzero(running)
         acted = self.turn_player.copy()
-        goals = clip_goals(np.broadcast_to(np.asarray(goals, np.float64), (n,)))
+        shape = (n, *self.goals.shape[2:])
+        goals = self.rally.clip_goals(np.broadcast_to(np.asarray(goals, np.float64), shape))
         self.goals[rows, acted[rows]] = goals[rows]
         out = {
             "reward": np.zeros((n, 2)), "decisions": np.zeros(n, np.int64),
@@ -86,10 +90,12 @@ class TurnTask:
             "rally_length": rally.game.hits.copy(), "score": rally.score.copy(),
             "hits": np.zeros((n, 2), np.int64), "acted": acted,
         }
+        flat_goals = self.goals.reshape((2 * n, *self.goals.shape[2:]))
         while running.any():
-            obs = rally.observe().reshape(2 * n, RALLY_OBS_SIZE)
-            actions = np.clip(self.low_level(obs, self.goals.reshape(2 * n)), -1.0, 1.0)
-            reward, term, trunc, info = rally.step(actions.reshape(n, 2, 3), active=running)
+            obs = rally.observe().reshape(2 * n, rally.obs_size)
+            actions = np.clip(self.low_level(obs, flat_goals), -1.0, 1.0)
+            reward, term, trunc, info = rally.step(actions.reshape(n, 2, rally.action_size),
+                                                   active=running)
             out["reward"] += reward * running[:, None]
             out["decisions"] += running
             out["hits"] += info["hit"] & running[:, None]

@@ -43,17 +43,21 @@ def goal_conditioned(low_policy: Policy) -> LowLevel:
 
 def rally_lengths_turns(high_level: HighLevel, low_level: LowLevel | str, n_rallies: int,
                         seed: int, config: RallyConfig | None = None,
-                        max_turns: int = 10_000) -> np.ndarray:
-    """Lengths of ``n_rallies`` rallies played turn by turn (cooperative rules)."""
-    turns = TurnTask(n_rallies, low_level, config, seed=seed)
+                        max_turns: int = 10_000,
+                        rally: type[RallyTask] = RallyTask) -> np.ndarray:
+    """Lengths of ``n_rallies`` rallies played turn by turn (cooperative rules). ``rally``:
+    the rally core (``HumanLikeRallyTask`` for HUMAN-LIKE players, whose goals are (M, 3))."""
+    turns = TurnTask(n_rallies, low_level, config, seed=seed, rally=rally)
     turns.reset(np.arange(n_rallies))
     lengths = np.full(n_rallies, -1, np.int64)
     for _ in range(max_turns):
         playing = np.flatnonzero(lengths < 0)
         if not len(playing):
             return lengths
-        goals = np.full(n_rallies, 4.0)
-        goals[playing] = high_level(turns.observe()[playing])
+        goals = np.empty((n_rallies, *turns.goals.shape[2:]))
+        goals[:] = rally.default_goal if rally.goal_size > 1 else rally.default_goal[0]
+        goals[playing] = np.asarray(high_level(turns.observe()[playing])).reshape(
+            goals[playing].shape)
         out = turns.step(goals, playing)
         done = playing[(out["terminated"] | out["truncated"])[playing]]
         lengths[done] = out["rally_length"][done]

@@ -37,12 +37,22 @@ def pretrained_prefix(role: str, player: str = "simple") -> Path:
     return prefix
 
 
-def load_network(spec: str, role: str) -> Policy:
+def load_network(spec: str, role: str, player: str = "simple") -> Policy:
     """A stored network (``pretrained`` or a path prefix) for ``role``."""
     from rallysim.policies.mlp import load_policy
 
-    prefix = pretrained_prefix(role) if spec == "pretrained" else Path(spec)
+    prefix = pretrained_prefix(role, player) if spec == "pretrained" else Path(spec)
     return load_policy(prefix)
+
+
+def humanlike_low_level(spec: str) -> Policy:
+    """``(N, 85) observations -> (N, 15) actions`` for ``RallySim/HumanLikeReturn-v0``:
+    ``scripted`` (``AimedSwing``), ``pretrained`` or a path prefix."""
+    if spec == "scripted":
+        from rallysim.policies.aimed_swing import AimedSwing
+
+        return AimedSwing()
+    return load_network(spec, "low", "humanlike")
 
 
 def low_level_policy(spec: str, seed: int = 0) -> Policy:

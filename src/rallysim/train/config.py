@@ -20,7 +20,7 @@ class TrainConfig:
     """Everything that shapes one PPO training run of one stage."""
 
     stage: str = "low"
-    env: str = "simple"  # low stage: the player, "simple" or "humanlike"
+    env: str = "simple"  # the player, "simple" or "humanlike" (low and high stages)
     shuttle: str = "paper"
     decisions: int = 3_000_000  # budget, in SB3 steps (decisions; turns for the high level)
     seed: int = 0
@@ -48,7 +48,9 @@ class TrainConfig:
     eval_episodes: int = 500  # episodes (low) or rallies (high, mono) per evaluation
     eval_seed: int = 12345
     checkpoint_every: int = 250_000
-    low_policy: str = "pretrained"  # high stage: the frozen low level (path prefix or pretrained)
+    # high stage: the frozen low level (path prefix, pretrained or scripted; HUMAN-LIKE: also
+    # "scripted" for AimedSwing)
+    low_policy: str = "pretrained"
     # low stage: what comes over ("serve", "mixed", "rally") and whether the player carries its
     # state from one episode to the next (the original builds) instead of a random start
     incoming: str = "serve"
@@ -59,14 +61,15 @@ class TrainConfig:
     warm_start_decisions: int = 524_288
     warm_start_epochs: int = 60
     warm_start_log_std: float = -1.5
+    warm_start_dagger: int = 0  # rounds of DAgger after the clone (a quarter of the data each)
 
     def __post_init__(self) -> None:
         if self.stage not in STAGES:
             raise ValueError(f"unknown stage {self.stage!r}; valid: {', '.join(STAGES)}")
         if self.env not in ("simple", "humanlike"):
             raise ValueError(f"env must be 'simple' or 'humanlike', got {self.env!r}")
-        if self.env == "humanlike" and self.stage != "low":
-            raise ValueError("the HUMAN-LIKE player has a low-level stage only so far")
+        if self.env == "humanlike" and self.stage == "mono":
+            raise ValueError("the HUMAN-LIKE player has low and high stages (no monolithic)")
         if self.activation not in ("tanh", "relu"):
             raise ValueError(f"activation must be 'tanh' or 'relu', got {self.activation!r}")
         for name in ("decisions", "n_envs", "n_steps", "batch_size", "n_epochs",

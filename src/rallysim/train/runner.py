@@ -169,19 +169,28 @@ def train_stage(config: TrainConfig, out_dir: str | Path, resume: bool = True,
 
 
 def warm_start(model: Any, config: TrainConfig, progress: bool) -> dict[str, Any]:
-    """Behaviour-clone the scripted controller into ``model`` (labelled in every output)."""
-    from rallysim.policies import ScriptedController
+    """Behaviour-clone the scripted controller into ``model`` (labelled in every output):
+    ``ScriptedController`` for SIMPLE, ``AimedSwing`` for HUMAN-LIKE."""
     from rallysim.train.warm_start import behaviour_clone
 
+    if config.env == "humanlike":
+        from rallysim.policies.aimed_swing import AimedSwing
+
+        teacher, name = AimedSwing(config.shuttle), "AimedSwing"
+    else:
+        from rallysim.policies import ScriptedController
+
+        teacher, name = ScriptedController().act_return, "ScriptedController"
     t = time.perf_counter()
     if progress:
-        print(f"warm start: cloning the scripted controller over "
-              f"{config.warm_start_decisions:,} decisions ...", file=sys.stderr, flush=True)
-    result = behaviour_clone(model, ScriptedController().act_return,
-                             config.warm_start_decisions, epochs=config.warm_start_epochs,
+        print(f"warm start: cloning {name} over {config.warm_start_decisions:,} decisions "
+              f"(+{config.warm_start_dagger} DAgger rounds) ...", file=sys.stderr, flush=True)
+    result = behaviour_clone(model, teacher, config.warm_start_decisions,
+                             epochs=config.warm_start_epochs,
                              log_std=config.warm_start_log_std, shuttle=config.shuttle,
-                             seed=config.seed + 1_000_003)
-    return {**result, "teacher": "scripted", "wall_s": round(time.perf_counter() - t, 2)}
+                             seed=config.seed + 1_000_003, player=config.env,
+                             dagger_rounds=config.warm_start_dagger)
+    return {**result, "teacher": name, "wall_s": round(time.perf_counter() - t, 2)}
 
 
 def export_policy(model: Any, config: TrainConfig, prefix: Path, final: dict[str, Any]) -> None:
@@ -190,7 +199,9 @@ def export_policy(model: Any, config: TrainConfig, prefix: Path, final: dict[str
 
     meta = {"stage": config.stage, "seed": config.seed, "steps": int(model.num_timesteps),
             "final": final, "config": config.to_dict()}
-    if config.stage == "high":
+    if config.stage == "high" and config.env == "humanlike":
+        meta["goal_mapping"] = ("target racket velocity: speed 1.5 + 1.5 (a0 + 1) m/s, elevation "
+                                "40 + 5 (a1 + 1) deg, azimuth 30 a2 deg (own frame)")
+    elif config.stage == "high":
         meta["goal_mapping"] = "goal_m = 4 + 2 * clip(action, -1, 1)"
-    env_id = stages.EXPORT_ENV["humanlike" if config.env == "humanlike" else config.stage]
-    save_policy(model, prefix, env_id=env_id, metadata=meta)
+    save_policy(model, prefix, env_id=stages.export_env(config), metadata=meta)

@@ -30,7 +30,15 @@ Act = Callable[[np.ndarray], np.ndarray]
 # Which env an exported policy drives, and how many observations it takes.
 EXPORT_ENV = {"low": "RallySim/SimpleReturn-v0", "high": "RallySim/SimpleRallyTurn-v0",
               "mono": "rallysim.envs.simple_rally_v0:SimpleRallyVectorEnv",
-              "humanlike": "RallySim/HumanLikeReturn-v0"}
+              "humanlike": "RallySim/HumanLikeReturn-v0",
+              "humanlike_high": "rallysim.envs.humanlike_rally_v0:HumanLikeRallyTurnVectorEnv"}
+
+
+def export_env(config: TrainConfig) -> str:
+    """The env id an exported policy of ``config``'s stage drives."""
+    if config.env == "humanlike":
+        return EXPORT_ENV["humanlike_high" if config.stage == "high" else "humanlike"]
+    return EXPORT_ENV[config.stage]
 
 
 def frozen_low_level(spec: str) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
@@ -43,6 +51,14 @@ def frozen_low_level(spec: str) -> Callable[[np.ndarray, np.ndarray], np.ndarray
 def make_env(config: TrainConfig) -> NativeVecEnv:
     """The stage's training env behind SB3's ``VecEnv`` API (same-step autoreset)."""
     n, seed = config.n_envs, config.seed
+    if config.env == "humanlike" and config.stage == "high":
+        from rallysim.envs.humanlike_rally_task import HumanLikeRallyTask
+        from rallysim.envs.humanlike_rally_v0 import HumanLikeRallyTurnVectorEnv
+
+        low = HumanLikeRallyTask.resolve_low_level(config.low_policy)
+        return NativeVecEnv(HumanLikeRallyTurnVectorEnv(n, low_level=low, seed=seed,
+                                                        autoreset_mode="same_step",
+                                                        shuttle=config.shuttle))
     if config.env == "humanlike":
         from rallysim.envs.humanlike_return_v0 import HumanLikeReturnVectorEnv
 
@@ -73,6 +89,13 @@ def goals_from_actions(act: Act) -> Act:
 def evaluate(config: TrainConfig, act: Act, rallies: int | None = None) -> dict[str, Any]:
     """The stage's numbers for deterministic policy ``act`` (observations -> actions)."""
     n = rallies or config.eval_episodes
+    if config.env == "humanlike" and config.stage == "high":
+        from rallysim.envs.humanlike_rally_task import HumanLikeRallyTask
+
+        lengths = rally_lengths_turns(act, HumanLikeRallyTask.resolve_low_level(config.low_policy),
+                                      n, config.eval_seed, RallyConfig(shuttle=config.shuttle),
+                                      rally=HumanLikeRallyTask)
+        return _rally_result(lengths)
     if config.env == "humanlike":
         from rallysim.eval.humanlike_eval import evaluate_humanlike
 
@@ -87,12 +110,16 @@ def evaluate(config: TrainConfig, act: Act, rallies: int | None = None) -> dict[
                                       n, config.eval_seed, rules)
     else:
         lengths = rally_lengths_direct(act, n, config.eval_seed, rules)
-    return {"rallies": n, "mean_rally": float(lengths.mean()),
+    return _rally_result(lengths)
+
+
+def _rally_result(lengths: np.ndarray) -> dict[str, Any]:
+    return {"rallies": len(lengths), "mean_rally": float(lengths.mean()),
             "median_rally": float(np.median(lengths)), "capped": int((lengths >= 50).sum())}
 
 
 def headline(config: TrainConfig, result: dict[str, Any]) -> str:
-    if config.env == "humanlike":
+    if config.env == "humanlike" and config.stage == "low":
         return (f"reward {result['mean_reward']:.3f} hit {result['hit_rate']:.3f} angle "
                 f"{result['mean_angle_error']:.1f} deg speed {result['mean_abs_speed_error']:.2f}")
     if config.stage == "low":

@@ -4,12 +4,15 @@ Not the paper's method (it trained the low level from scratch): runs that use it
 The teacher (e.g. ``ScriptedController().act_return``) plays ``decisions`` decisions; the actor's
 mean is fitted to its actions (MSE; the teacher's actions are already in [-1, 1]) and the critic
 to the discounted returns it earned, so that PPO's first advantages are not noise that would
-undo the clone. The log-std is then set to ``log_std`` (small: the clone is already good).
+undo the clone. With ``dagger_rounds`` > 0 the clone then plays itself and the teacher labels
+the states it reaches (DAgger), so that it also learns to recover from its own mistakes. The
+log-std is then set to ``log_std`` (small: the clone is already good).
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 import torch
@@ -17,21 +20,34 @@ from stable_baselines3 import PPO
 
 from rallysim.envs.simple_return_v0 import SimpleReturnVectorEnv
 
+Act = Callable[[np.ndarray], np.ndarray]
 
-def teacher_dataset(teacher: Callable[[np.ndarray], np.ndarray], n_envs: int, decisions: int,
-                    gamma: float, shuttle: str = "paper",
-                    seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(obs, actions, discounted returns) of the teacher's complete episodes."""
-    env = SimpleReturnVectorEnv(n_envs, shuttle=shuttle, autoreset_mode="same_step")
+
+def _task_env(player: str, n_envs: int, shuttle: str) -> Any:
+    if player == "humanlike":
+        from rallysim.envs.humanlike_return_v0 import HumanLikeReturnVectorEnv
+
+        return HumanLikeReturnVectorEnv(n_envs, shuttle=shuttle, autoreset_mode="same_step")
+    return SimpleReturnVectorEnv(n_envs, shuttle=shuttle, autoreset_mode="same_step")
+
+
+def teacher_dataset(teacher: Act, n_envs: int, decisions: int, gamma: float,
+                    shuttle: str = "paper", seed: int = 0, player: str = "simple",
+                    actor: Act | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(obs, teacher's actions, discounted returns) of complete episodes played by ``actor``
+    (default: the teacher itself) in the ``player``'s low-level task."""
+    env = _task_env(player, n_envs, shuttle)
     obs, _ = env.reset(seed=seed)
     steps = max(1, decisions // n_envs)
     all_obs = np.empty((steps, n_envs, obs.shape[1]), np.float32)
-    all_act = np.empty((steps, n_envs, 3), np.float32)
+    all_act = np.empty((steps, n_envs, env.single_action_space.shape[0]), np.float32)
     rewards = np.empty((steps, n_envs))
     dones = np.empty((steps, n_envs), bool)
     for t in range(steps):
         act = np.asarray(teacher(obs), np.float32)
         all_obs[t], all_act[t] = obs, act
+        if actor is not None:
+            act = np.asarray(actor(obs), np.float32)
         obs, r, term, trunc, _ = env.step(act)
         rewards[t], dones[t] = r, term | trunc
     returns = np.zeros((steps, n_envs))
@@ -45,18 +61,35 @@ def teacher_dataset(teacher: Callable[[np.ndarray], np.ndarray], n_envs: int, de
     return all_obs[valid], all_act[valid], returns[valid].astype(np.float32)
 
 
-def behaviour_clone(model: PPO, teacher: Callable[[np.ndarray], np.ndarray], decisions: int,
-                    epochs: int = 30, batch_size: int = 4096, lr: float = 1e-3,
-                    log_std: float = -1.5, shuttle: str = "paper", seed: int = 0,
-                    ) -> dict[str, float]:
+def behaviour_clone(model: PPO, teacher: Act, decisions: int, epochs: int = 30,
+                    batch_size: int = 4096, lr: float = 1e-3, log_std: float = -1.5,
+                    shuttle: str = "paper", seed: int = 0, player: str = "simple",
+                    dagger_rounds: int = 0) -> dict[str, float]:
     """Fit ``model``'s actor mean and critic to ``teacher``; return the final losses."""
-    obs, act, ret = teacher_dataset(teacher, 256, decisions, model.gamma, shuttle, seed)
+    data = [teacher_dataset(teacher, 256, decisions, model.gamma, shuttle, seed, player)]
     policy = model.policy
-    o = torch.as_tensor(obs)
-    a = torch.as_tensor(act)
-    g = torch.as_tensor(ret)[:, None]
     optimiser = torch.optim.Adam(policy.parameters(), lr=lr)
     gen = torch.Generator().manual_seed(seed)
+    losses = _fit(policy, optimiser, gen, data, epochs, batch_size)
+    for k in range(dagger_rounds):
+        def student(obs: np.ndarray) -> np.ndarray:
+            with torch.no_grad():
+                return model.policy.predict(obs, deterministic=True)[0]
+
+        data.append(teacher_dataset(teacher, 256, max(256, decisions // 4), model.gamma,
+                                    shuttle, seed + 7919 * (k + 1), player, actor=student))
+        losses = _fit(policy, optimiser, gen, data, max(1, epochs // 2), batch_size)
+    with torch.no_grad():
+        policy.log_std.fill_(log_std)
+    return {"samples": float(sum(len(d[0]) for d in data)), **losses}
+
+
+def _fit(policy: Any, optimiser: Any, gen: Any,
+         data: list[tuple[np.ndarray, np.ndarray, np.ndarray]], epochs: int,
+         batch_size: int) -> dict[str, float]:
+    o = torch.as_tensor(np.concatenate([d[0] for d in data]))
+    a = torch.as_tensor(np.concatenate([d[1] for d in data]))
+    g = torch.as_tensor(np.concatenate([d[2] for d in data]))[:, None]
     actor_loss = critic_loss = torch.zeros(())
     for _ in range(epochs):
         for idx in torch.randperm(len(o), generator=gen).split(batch_size):
@@ -69,7 +102,4 @@ def behaviour_clone(model: PPO, teacher: Callable[[np.ndarray], np.ndarray], dec
             optimiser.zero_grad()
             (actor_loss + 0.5 * critic_loss).backward()
             optimiser.step()
-    with torch.no_grad():
-        policy.log_std.fill_(log_std)
-    return {"samples": float(len(o)), "actor_mse": actor_loss.item(),
-            "critic_mse": critic_loss.item()}
+    return {"actor_mse": actor_loss.item(), "critic_mse": critic_loss.item()}

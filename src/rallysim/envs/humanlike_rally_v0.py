@@ -1,0 +1,105 @@
+"""``humanlike_rally_v0``: two HUMAN-LIKE players rally in 3-D, the rally the paper never reached.
+
+The same views as ``simple_rally_v0``, over ``HumanLikeRallyTask`` (the same rulebook with the
+HUMAN-LIKE bodies of SPEC §10):
+
+| view | what |
+|---|---|
+| ``parallel_env(**kw)`` | PettingZoo ``ParallelEnv``; both players act every decision (0.1 s) |
+| ``HumanLikeRallyVectorEnv(num_rallies, **kw)`` | Gymnasium ``VectorEnv``, one slot per rally-player pair (2N slots) |
+| ``turn_env(low_level=..., **kw)`` | PettingZoo ``AECEnv``; the acting agent is the player whose turn just began; its action is its goal for the frozen low level |
+| ``HumanLikeRallyTurnEnv`` / ``HumanLikeRallyTurnVectorEnv`` | single-agent Gymnasium view of the turn game (cooperative), one shared high-level policy |
+
+## Players, actions, observations
+Agents ``"player_0"`` (receives the first serve) and ``"player_1"``. Each acts like the
+low-level task's player: ``Box(-1, 1, (15,))`` (``RallySim/HumanLikeReturn-v0``'s actions).
+Each observes 86 values in its own frame (player 1's frame is player 0's turned 180 degrees
+about z), in [-1, 1]:
+
+| index | value |
+|---|---|
+| 0-81 | the low-level observation without the target (``rallysim.envs.humanlike_obs``) |
+| 82-84 | the opponent's hips position (own frame, scaled like positions) |
+| 85 | "my turn": 1 while this player's racket is armed |
+
+## Rules
+Hips start at own-frame (-2.7, 0) for both, joints in the zero pose. The serve is the low-level
+task's HUMAN-LIKE serve, to player 0. After a hit the shuttle leaves along the racket velocity
+at min(60, 5 |v|) m/s (SPEC §10). Everything else (arming, net, landing, the cooperative +0.2
+per hit and 50-hit cap, competitive badminton scoring) is ``simple_rally_v0``'s; see there.
+
+## Turn-based view: the high level's 3-D goal
+``turn_env(low_level, **kw)``: the player whose turn has just begun picks a goal, ``Box(-1, 1,
+(3,))``, mapped onto the low level's target racket velocity: speed 1.5 + 1.5 (g0 + 1) m/s
+(1.5-4.5), elevation 40 + 5 (g1 + 1) degrees (40-50), azimuth 30 g2 degrees (-30-30, toward +y
+for positive g2), own frame. The goal is held until the player's next turn; both players' low
+levels act every decision; one step covers the span to the next turn (``infos[agent]
+["decisions"]`` gives its length). ``low_level``: ``"scripted"`` (``AimedSwing``, the default),
+``"random"``, ``"pretrained"``, a path prefix of an exported ``HumanLikeReturn-v0`` policy, or a
+callable ``(observations (M, 86), goals (M, 3)) -> actions (M, 15)``.
+
+## Version history
+- v0: first release.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from rallysim.envs.humanlike_rally_task import HumanLikeRallyTask
+from rallysim.envs.simple_rally_v0 import (
+    SimpleRallyParallelEnv,
+    SimpleRallyTurnAECEnv,
+    SimpleRallyTurnEnv,
+    SimpleRallyTurnVectorEnv,
+    SimpleRallyVectorEnv,
+)
+from rallysim.envs.turn_task import LowLevel
+
+__all__ = ["HumanLikeRallyParallelEnv", "HumanLikeRallyTurnAECEnv", "HumanLikeRallyTurnEnv",
+           "HumanLikeRallyTurnVectorEnv", "HumanLikeRallyVectorEnv", "parallel_env",
+           "turn_env"]
+
+# The SIMPLE views are written over the rally core's hooks; these name the HUMAN-LIKE core.
+
+
+class HumanLikeRallyParallelEnv(SimpleRallyParallelEnv):
+    """One HUMAN-LIKE rally, both players acting every decision."""
+
+    metadata = {**SimpleRallyParallelEnv.metadata, "name": "humanlike_rally_v0"}
+    rally = HumanLikeRallyTask
+
+
+class HumanLikeRallyVectorEnv(SimpleRallyVectorEnv):
+    """N HUMAN-LIKE rallies as 2N Gymnasium slots (slot 2e + p: player p of rally e)."""
+
+    rally = HumanLikeRallyTask
+
+
+class HumanLikeRallyTurnAECEnv(SimpleRallyTurnAECEnv):
+    """The turn-based HUMAN-LIKE rally as a PettingZoo ``AECEnv``."""
+
+    metadata = {**SimpleRallyTurnAECEnv.metadata, "name": "humanlike_rally_turn_v0"}
+    rally = HumanLikeRallyTask
+
+
+class HumanLikeRallyTurnVectorEnv(SimpleRallyTurnVectorEnv):
+    """N cooperative turn-based HUMAN-LIKE rallies, single-agent: the action is the goal."""
+
+    rally = HumanLikeRallyTask
+
+
+class HumanLikeRallyTurnEnv(SimpleRallyTurnEnv):
+    """One cooperative turn-based HUMAN-LIKE rally as a single-agent Gymnasium env."""
+
+    vector_env = HumanLikeRallyTurnVectorEnv
+
+
+def parallel_env(**kwargs: Any) -> HumanLikeRallyParallelEnv:
+    """The HUMAN-LIKE rally as a PettingZoo ``ParallelEnv`` (arguments as ``simple_rally_v0``)."""
+    return HumanLikeRallyParallelEnv(**kwargs)
+
+
+def turn_env(low_level: LowLevel | str = "scripted", **kwargs: Any) -> HumanLikeRallyTurnAECEnv:
+    """The turn-based HUMAN-LIKE rally (PettingZoo AEC) driven by ``low_level``."""
+    return HumanLikeRallyTurnAECEnv(low_level=low_level, **kwargs)

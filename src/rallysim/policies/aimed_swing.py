@@ -1,0 +1,213 @@
+"""A scripted HUMAN-LIKE player that hits with a commanded racket velocity (``AimedSwing``).
+
+The racket's velocity at the impact is the sum of two parts the servo and the hips produce
+exactly (see docs/humanlike.md, "Drive"):
+
+- the hips, kinematic, move at 5 a m/s in the horizontal plane for the whole decision;
+- a full-strength wrist joint whose target moves by a small angle e reaches it in one physics
+  step (the servo is deadbeat), so during the first physics step of a decision the racket face
+  moves by the chord of that rotation: e sets the vertical speed, up to about 3.5 m/s.
+
+So the player holds a pose in which the face looks up, walks the hips so that at some decision
+start the shuttle sits just above the face's hit volume, and in that decision's first physics
+step flicks the wrist up (vertical part of the target) while the hips move at the rest of the
+target (horizontal part). The shuttle enters the hit volume during that step, the one the
+rulebook measures the racket velocity over.
+
+The pose: upper arm swung 30 deg forward (``upper_arm_y``), raised or lowered (``upper_arm_x``)
+to put the face at the planned height, the wrist flexed to level the face; the trunk (spine and
+chest together, about the vertical) turned to keep the hips inside their range for shuttles
+deep or wide. Everything is read from the observation, so one controller drives any batch.
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+from rallysim.assets import asset_path
+from rallysim.core.game import PHYSICS_DT, PHYSICS_STEPS_PER_DECISION
+from rallysim.core.humanlike import JOINTS, HumanLikeBodies, humanlike_geometry
+from rallysim.core.shuttle import ShuttleState, make_shuttle_model
+from rallysim.envs.humanlike_obs import HIPS, SHUTTLE
+from rallysim.envs.simple_obs import POSITION_CENTRE, POSITION_SCALE, SHUTTLE_SPEED_SCALE
+
+TARGET = slice(82, 85)  # the task's target racket velocity / 5 m/s
+TARGET_SCALE = 5.0
+FORWARD_SWING = np.radians(30.0)  # upper_arm_y of every pose
+RAISE_RANGE = np.radians(np.arange(-60.0, 60.01, 1.0))  # upper_arm_x grid of the pose table
+TRUNK_MAX = np.radians(30.0)  # spine + chest turn, +-15 deg each
+HALF_DEPTH = 0.125  # the hit volume's half thickness along the face normal (0.025 + 0.1 m)
+FACE_TOP = 0.80  # m above the hips centre: the highest planned face (1.7 m)
+HIPS_MARGIN = 0.08  # m kept from the hips' range edges (a clamp would change the velocity)
+J = {name: i for i, name in enumerate(JOINTS)}
+
+
+class PoseTable:
+    """The levelled contact poses over the raise angle (trunk straight): for each, the wrist
+    angle that turns the face normal most nearly up, the face centre relative to the hips
+    centre, the normal, and the wrist's axis and lever (face centre minus wrist anchor)."""
+
+    def __init__(self) -> None:
+        m = mujoco.MjModel.from_xml_path(str(asset_path("humanlike_player.xml")))
+        d = mujoco.MjData(m)
+        site = 0
+        hand = m.joint("hand_x").id
+        flex = np.radians(np.arange(-90.0, 90.01, 0.25))
+        rows = []
+        for raise_ in RAISE_RANGE:
+            q = np.zeros(m.nq)
+            q[J["upper_arm_x"]], q[J["upper_arm_y"]] = raise_, FORWARD_SWING
+            best = (-2.0, 0.0)
+            for psi in flex:
+                q[J["hand_x"]] = psi
+                d.qpos[:] = q
+                mujoco.mj_kinematics(m, d)
+                nz = d.site_xmat[site].reshape(3, 3)[2, 1]
+                if nz > best[0]:
+                    best = (nz, psi)
+            q[J["hand_x"]] = best[1]
+            d.qpos[:] = q
+            mujoco.mj_kinematics(m, d)
+            mujoco.mj_comPos(m, d)
+            hips = d.mocap_pos[0]
+            face = d.site_xpos[site] - hips
+            normal = d.site_xmat[site].reshape(3, 3)[:, 1]
+            axis = d.xaxis[hand]
+            lever = d.site_xpos[site] - d.xanchor[hand]
+            rows.append(np.concatenate([[best[1]], face, normal, axis, lever]))
+        t = np.array(rows)
+        self.raise_ = RAISE_RANGE
+        self.wrist, self.face, self.normal = t[:, 0], t[:, 1:4], t[:, 4:7]
+        self.axis, self.lever = t[:, 7:10], t[:, 10:13]
+
+    def raise_for_height(self, z: np.ndarray) -> np.ndarray:
+        """Raise angles putting the face centre ``z`` m above the hips (clipped to the table)."""
+        return np.interp(z, self.face[:, 2], self.raise_)
+
+    def at(self, raise_: np.ndarray) -> dict[str, np.ndarray]:
+        """The table's rows interpolated at raise angles (n,)."""
+        def col(a: np.ndarray) -> np.ndarray:
+            return np.stack([np.interp(raise_, self.raise_, a[:, i]) for i in range(3)], axis=1)
+
+        return {"wrist": np.interp(raise_, self.raise_, self.wrist), "face": col(self.face),
+                "normal": col(self.normal), "axis": col(self.axis), "lever": col(self.lever)}
+
+
+def _turn(v: np.ndarray, yaw: np.ndarray) -> np.ndarray:
+    """Vectors (n, 3) turned by ``yaw`` (n,) about the vertical."""
+    c, s = np.cos(yaw), np.sin(yaw)
+    return np.stack([c * v[:, 0] - s * v[:, 1], s * v[:, 0] + c * v[:, 1], v[:, 2]], axis=1)
+
+
+def wrist_flick(axis: np.ndarray, lever: np.ndarray, rise: np.ndarray) -> np.ndarray:
+    """Wrist angles e (n,) whose rotation about ``axis`` moves the face centre at ``lever``
+    up by ``rise`` m: Rodrigues' chord, solved by Newton's method."""
+    across = np.cross(axis, lever)
+    inward = axis * np.einsum("ij,ij->i", axis, lever)[:, None] - lever
+    a, b = across[:, 2], inward[:, 2]
+    e = rise / np.where(np.abs(a) > 1e-6, a, 1e-6)
+    for _ in range(6):
+        f = a * np.sin(e) + b * (1.0 - np.cos(e)) - rise
+        e = e - f / (a * np.cos(e) + b * np.sin(e))
+    return e
+
+
+def chord(axis: np.ndarray, lever: np.ndarray, e: np.ndarray) -> np.ndarray:
+    """The face centre's displacement (n, 3) when the wrist turns by ``e``."""
+    across = np.cross(axis, lever)
+    inward = axis * np.einsum("ij,ij->i", axis, lever)[:, None] - lever
+    return across * np.sin(e)[:, None] + inward * (1.0 - np.cos(e))[:, None]
+
+
+class AimedSwing:
+    """``controller(observations (N, 85)) -> actions (N, 15)`` for ``HumanLikeReturn-v0``:
+    hits the shuttle with the racket moving at the observed target velocity. See the module
+    docstring for how."""
+
+    horizon_steps = 200  # physics steps of shuttle prediction (4 s)
+
+    def __init__(self, shuttle: str = "paper") -> None:
+        self.flight = make_shuttle_model(shuttle, PHYSICS_DT)
+        self.table = PoseTable()
+        geo = humanlike_geometry()
+        self._lo, self._hi = geo["joint_lo"], geo["joint_hi"]
+        self._yaw = np.linspace(-TRUNK_MAX, TRUNK_MAX, 61)
+
+    def predict(self, pos: np.ndarray, vel: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The shuttles' positions and velocities (N, H + 1, 3) at every physics step."""
+        s = ShuttleState(pos.copy(), vel.copy(), np.zeros(len(pos)), np.zeros(len(pos)))
+        p = np.empty((len(pos), self.horizon_steps + 1, 3))
+        v = np.empty_like(p)
+        p[:, 0], v[:, 0] = pos, vel
+        for k in range(1, self.horizon_steps + 1):
+            self.flight.advance(s, PHYSICS_DT)
+            p[:, k], v[:, k] = s.pos, s.vel
+        return p, v
+
+    def plan(self, obs: np.ndarray) -> dict[str, np.ndarray]:
+        """The meeting each observation leads to: in how many decisions (0: this one), the
+        pose (raise, wrist, trunk yaw), where the hips must be then and how they move in it,
+        and the wrist's flick."""
+        n = len(obs)
+        pos = obs[:, SHUTTLE][:, :3] * POSITION_SCALE + POSITION_CENTRE
+        vel = obs[:, SHUTTLE][:, 3:] * SHUTTLE_SPEED_SCALE
+        goal = obs[:, TARGET] * TARGET_SCALE
+        p, v = self.predict(pos, vel)
+        spd = PHYSICS_STEPS_PER_DECISION
+        starts = np.arange(0, self.horizon_steps, spd)  # physics steps of decision starts
+        mid = 0.5 * (p[:, starts] + p[:, starts + 1])  # the shuttle half a step in
+        # The face centre wanted at each decision start: the shuttle on the hit volume's top
+        # half a step in, the face having risen by half the target's vertical travel.
+        face_z = mid[..., 2] - HALF_DEPTH - 0.5 * PHYSICS_DT * goal[:, None, 2]
+        falling = v[:, starts, 2] < 0.0
+        ok = falling & (face_z - HumanLikeBodies.hips_height <= FACE_TOP)
+        found = ok.any(axis=1)
+        k = np.where(found, ok.argmax(axis=1), 0)
+        rows = np.arange(n)
+        z_rel = face_z[rows, k] - HumanLikeBodies.hips_height
+        raise_ = self.table.raise_for_height(z_rel)
+        pose = self.table.at(raise_)
+        # one correction for the normal's tilt in the volume's depth
+        z_rel = z_rel + HALF_DEPTH * (1.0 - pose["normal"][:, 2])
+        raise_ = self.table.raise_for_height(z_rel)
+        pose = self.table.at(raise_)
+        # the trunk's turn: as far forward as the hips' back edge allows
+        face_mid = mid[rows, k]
+        hips_lo, hips_hi = HumanLikeBodies.hips_range[:, 0], HumanLikeBodies.hips_range[:, 1]
+        reach_x = np.cos(self._yaw)[None] * pose["face"][:, :1] \
+            - np.sin(self._yaw)[None] * pose["face"][:, 1:2]  # (n, yaws), increasing
+        room = face_mid[:, :1] - (hips_lo[0] + HIPS_MARGIN)
+        yaw = np.array([np.interp(r, x, self._yaw) for r, x in zip(room[:, 0], reach_x,
+                                                                   strict=True)])
+        face = _turn(pose["face"], yaw)
+        axis, lever = _turn(pose["axis"], yaw), _turn(pose["lever"], yaw)
+        flick = wrist_flick(axis, lever, goal[:, 2] * PHYSICS_DT)
+        move = chord(axis, lever, flick)
+        hips_vel = goal[:, :2] - move[:, :2] / PHYSICS_DT
+        # hips at the decision start: the face's horizontal position half a step before mid
+        hips = face_mid[:, :2] - 0.5 * PHYSICS_DT * (hips_vel + move[:, :2] / PHYSICS_DT) \
+            - face[:, :2]
+        hips = np.clip(hips, hips_lo + HIPS_MARGIN, hips_hi - HIPS_MARGIN)
+        return {"found": found, "decisions": k, "raise": raise_, "wrist": pose["wrist"],
+                "yaw": yaw, "flick": flick, "hips": hips, "hips_vel": hips_vel}
+
+    def __call__(self, observations: np.ndarray) -> np.ndarray:
+        obs = np.asarray(observations, dtype=np.float64)
+        n = len(obs)
+        plan = self.plan(obs)
+        hips = (obs[:, HIPS] * POSITION_SCALE + POSITION_CENTRE)[:, :2]
+        now = plan["found"] & (plan["decisions"] == 0)
+        step = HumanLikeBodies.max_hips_speed * PHYSICS_DT * PHYSICS_STEPS_PER_DECISION
+        move = np.clip((plan["hips"] - hips) / step, -1.0, 1.0)
+        move = np.where(now[:, None], plan["hips_vel"] / HumanLikeBodies.max_hips_speed, move)
+        angles = np.zeros((n, len(JOINTS)))
+        angles[:, J["spine_z"]] = angles[:, J["chest_z"]] = 0.5 * plan["yaw"]
+        angles[:, J["upper_arm_x"]] = plan["raise"]
+        angles[:, J["upper_arm_y"]] = FORWARD_SWING
+        angles[:, J["hand_x"]] = plan["wrist"] + np.where(now, plan["flick"], 0.0)
+        actions = np.empty((n, 2 + len(JOINTS) + 5))
+        actions[:, 0:2] = np.clip(move, -1.0, 1.0)
+        actions[:, 2:2 + len(JOINTS)] = 2.0 * (angles - self._lo) / (self._hi - self._lo) - 1.0
+        actions[:, 2 + len(JOINTS):] = 1.0  # full strength: every joint is deadbeat
+        return actions
