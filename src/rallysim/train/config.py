@@ -1,6 +1,8 @@
 """Training configuration: one dataclass, defaults per stage in ``configs/{stage}.yaml``.
 
-Precedence: the stage's packaged YAML < a user's YAML (``--config``) < ``--set key=value``.
+Precedence: the stage's packaged YAML < the player's packaged YAML for that stage
+(``configs/{stage}_humanlike.yaml``, HUMAN-LIKE only) < a user's YAML (``--config``) <
+``--set key=value``.
 """
 
 from __future__ import annotations
@@ -123,17 +125,14 @@ def load_config(stage: str, path: str | Path | None = None,
         raise ValueError(f"unknown stage {stage!r}; valid: {', '.join(STAGES)}")
     valid = {f.name for f in fields(TrainConfig)}
     values: dict[str, Any] = {"stage": stage}
-    sources = [CONFIG_DIR / f"{stage}.yaml"] + ([Path(path)] if path else [])
-    for source in sources:
-        try:
-            data = yaml.safe_load(Path(source).read_text()) or {}
-        except FileNotFoundError:
-            raise FileNotFoundError(f"config file {source} does not exist") from None
-        except yaml.YAMLError as err:
-            raise ValueError(f"config file {source} is not valid YAML: {err}") from None
-        if not isinstance(data, dict):
-            raise ValueError(f"config file {source} must hold a mapping of settings")
-        values.update(data)
+    user = _read_yaml(Path(path)) if path else {}
+    # the HUMAN-LIKE player's packaged settings sit between the stage's and the user's
+    env = (overrides or {}).get("env", user.get("env", "simple"))
+    values.update(_read_yaml(CONFIG_DIR / f"{stage}.yaml"))
+    player = CONFIG_DIR / f"{stage}_{env}.yaml"
+    if env != "simple" and player.is_file():
+        values.update(_read_yaml(player))
+    values.update(user)
     values.update(overrides or {})
     unknown = sorted(set(values) - valid)
     if unknown:
@@ -141,6 +140,18 @@ def load_config(stage: str, path: str | Path | None = None,
     if values.get("stage") != stage:
         raise ValueError(f"config is for stage {values.get('stage')!r}, not {stage!r}")
     return replace(TrainConfig(), **{k: _coerce(k, v) for k, v in values.items()})
+
+
+def _read_yaml(source: Path) -> dict[str, Any]:
+    try:
+        data = yaml.safe_load(source.read_text()) or {}
+    except FileNotFoundError:
+        raise FileNotFoundError(f"config file {source} does not exist") from None
+    except yaml.YAMLError as err:
+        raise ValueError(f"config file {source} is not valid YAML: {err}") from None
+    if not isinstance(data, dict):
+        raise ValueError(f"config file {source} must hold a mapping of settings")
+    return data
 
 
 def parse_overrides(items: list[str]) -> dict[str, Any]:
