@@ -74,14 +74,12 @@ def _decisions(config: TrainConfig, runners: dict[str, Any]) -> int:
 
 
 def _episode_return(config: TrainConfig, runners: dict[str, Any]) -> float:
-    """Mean return of the episodes finished this iteration, per player for the rallies."""
-    from rallysim.rllib.envs import SHARED_MODULE
-
+    """Mean return of the episodes finished this iteration; per player for the rallies (as a
+    slot's return in the SB3 path)."""
     if config.stage == "low":
-        value = runners.get("episode_return_mean", math.nan)
-    else:
-        value = runners.get("module_episode_return_mean", {}).get(SHARED_MODULE, math.nan)
-    return float(value)
+        return float(runners.get("episode_return_mean", math.nan))
+    per_agent = runners.get("agent_episode_returns_mean") or {}
+    return float(np.mean(list(per_agent.values()))) if per_agent else math.nan
 
 
 def module_policy(module: Any) -> Any:
