@@ -153,7 +153,9 @@ def _train(args: argparse.Namespace) -> int:
     if rllib:
         from rallysim.rllib.runner import train_stage_rllib
 
-        runners = 2 if args.env_runners is None else args.env_runners
+        # a cluster: spread the sampling; one machine: the driver samples fastest (docs/rllib.md)
+        runners = args.env_runners if args.env_runners is not None else (
+            2 if args.address else 0)
         curve = train_stage_rllib(config, out, address=args.address, env_runners=runners,
                                   progress=not args.quiet)
     else:
@@ -233,7 +235,8 @@ def build_parser() -> argparse.ArgumentParser:
     train.add_argument("--address", help="rllib: the Ray cluster, auto or HOST:PORT "
                                          "(default: a local Ray started for the run)")
     train.add_argument("--env-runners", dest="env_runners", type=_non_negative,
-                       help="rllib: env runners (one CPU each, spread by Ray; default 2)")
+                       help="rllib: env runners, one CPU each, placed by Ray (default: 2 with "
+                            "--address, else 0: the driver samples)")
     train.set_defaults(run=_train)
 
     repro = sub.add_parser("reproduce", help="the whole pipeline and the paper's Table VII")

@@ -17,6 +17,7 @@ never loads, so an interrupted run starts again.
 from __future__ import annotations
 
 import json
+import logging
 import math
 import os
 import sys
@@ -186,6 +187,8 @@ def train_stage_rllib(config: TrainConfig, out_dir: str | Path, address: str | N
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
+    # RLlib warns on every run that PPO uses its new API stack, which is what RallySim wants
+    logging.getLogger("ray.rllib").setLevel(logging.ERROR)
     torch.set_num_threads(config.torch_threads)  # the learner runs in this process
     started = connect(address, env_runners)
     algo = None
