@@ -4,6 +4,7 @@ low-level stage trained across both through ``rallysim train --backend rllib --a
 About a minute on two cores. Each node offers one CPU and each env runner takes one, so Ray
 must place one env runner on each node. The nodes run in a process group of their own that
 the test ends by its id (no machine-wide ``ray stop``, which would end other users' Ray too).
+The training runs through the ``rallysim`` command in a process of its own, like a user's.
 """
 
 from __future__ import annotations
@@ -24,8 +25,6 @@ import pytest
 
 pytest.importorskip("ray")
 pytest.importorskip("torch")
-
-from rallysim.cli import main
 
 pytestmark = pytest.mark.cluster
 RAY = str(Path(sys.executable).with_name("ray"))
@@ -55,20 +54,22 @@ def start_node(args: list[str], log: Path, env: dict[str, str]) -> subprocess.Po
                                 start_new_session=True)
 
 
-def wait_for_nodes(address: str, n: int, timeout: float = 90.0) -> list[str]:
-    import ray
-
-    deadline = time.monotonic() + timeout
-    ray.init(address=address, logging_level="ERROR", log_to_driver=False)
-    try:
-        while time.monotonic() < deadline:
-            alive = [node["NodeID"] for node in ray.nodes() if node["Alive"]]
-            if len(alive) >= n:
-                return alive
-            time.sleep(0.5)
-    finally:
-        ray.shutdown()
-    raise AssertionError(f"the cluster at {address} did not reach {n} nodes")
+def wait_for_nodes(address: str, n: int, env: dict[str, str], timeout: float = 90.0
+                   ) -> list[str]:
+    """The ids of the cluster's nodes once ``n`` are alive, asked by a driver of its own."""
+    code = ("import sys, time, ray\n"
+            "ray.init(address=sys.argv[1], logging_level='ERROR', log_to_driver=False)\n"
+            "deadline = time.monotonic() + float(sys.argv[3])\n"
+            "while time.monotonic() < deadline:\n"
+            "    alive = [n['NodeID'] for n in ray.nodes() if n['Alive']]\n"
+            "    if len(alive) >= int(sys.argv[2]):\n"
+            "        print(' '.join(alive)); break\n"
+            "    time.sleep(0.5)\n")
+    out = subprocess.run([sys.executable, "-c", code, address, str(n), str(timeout)],
+                         capture_output=True, text=True, env=env, timeout=timeout + 60)
+    ids = out.stdout.split()
+    assert len(ids) >= n, f"the cluster at {address} did not reach {n} nodes: {out.stderr}"
+    return ids
 
 
 def stop_group(proc: subprocess.Popen) -> None:
@@ -107,8 +108,8 @@ def two_node_cluster(monkeypatch):
             [f"--address={address}", "--num-cpus=1",
              f"--dashboard-agent-listen-port={agent[2]}", f"--metrics-export-port={agent[3]}"],
             temp / "worker.log", env))
-        node_ids = wait_for_nodes(address, 2)
-        yield address, node_ids
+        node_ids = wait_for_nodes(address, 2, env)
+        yield address, node_ids, env
     finally:
         for proc in reversed(nodes):
             stop_group(proc)
@@ -116,11 +117,16 @@ def two_node_cluster(monkeypatch):
 
 
 def test_low_level_trains_across_two_nodes(two_node_cluster, tmp_path):
-    address, node_ids = two_node_cluster
+    address, node_ids, env = two_node_cluster
     out = tmp_path / "low"
-    assert main(["train", "low", "--backend", "rllib", "--address", address,
-                 "--env-runners", "2", "--decisions", str(DECISIONS), "--seed", "0",
-                 "--out", str(out), "--quiet", "--set", *SETTINGS]) == 0
+    # The CLI in a process of its own, as a user runs it: a Ray driver connects once per
+    # process (this one may already have run a local Ray for other tests).
+    run = subprocess.run(
+        [str(Path(sys.executable).with_name("rallysim")), "train", "low", "--backend", "rllib",
+         "--address", address, "--env-runners", "2", "--decisions", str(DECISIONS),
+         "--seed", "0", "--out", str(out), "--quiet", "--set", *SETTINGS],
+        capture_output=True, text=True, env=env, timeout=600)
+    assert run.returncode == 0, run.stderr[-3000:]
     curve = json.loads((out / "curve.json").read_text())
 
     # (a) one env runner on each node of the cluster

@@ -19,6 +19,7 @@ from rallysim.policies.mlp import FORMAT, FORMAT_VERSION, policy_paths, sha256_f
 
 Layers = list[tuple[np.ndarray, np.ndarray]]  # (weight (out, in), bias (out,)) per linear layer
 
+
 def _actor_layers(model: Any) -> tuple[Layers, str, np.ndarray]:
     """(weight, bias) of the actor's linear layers, its activation and log-std, from an SB3
     ``ActorCriticPolicy`` with an identity (flatten) feature extractor."""
