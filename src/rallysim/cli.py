@@ -42,6 +42,16 @@ def _size(text: str) -> tuple[int, int]:
     return w, h
 
 
+def _non_negative(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be >= 0, got {value}")
+    return value
+
+
 def _render(args: argparse.Namespace) -> int:
     """Write an MP4, a GIF and a strip of stills of N episodes (or rallies)."""
     from rallysim.envs.rally_task import RallyConfig
@@ -107,12 +117,30 @@ def _missing_train_extra(command: str) -> bool:
     return bool(missing)
 
 
+def _missing_ray_extra() -> bool:
+    """Say so (and return True) when the packages of the ``ray`` extra are not installed."""
+    from rallysim.rllib import INSTALL_HINT, missing_packages
+
+    missing = missing_packages()
+    if missing:
+        print(f"rallysim train --backend rllib needs the ray extra (missing: "
+              f"{', '.join(missing)}): install rallysim[ray], e.g. {INSTALL_HINT}",
+              file=sys.stderr)
+    return bool(missing)
+
+
 def _train(args: argparse.Namespace) -> int:
-    """Train one stage (low, high, mono) with Stable-Baselines3 PPO; resumable."""
-    if _missing_train_extra("train"):
+    """Train one stage (low, high, mono) with Stable-Baselines3 PPO (resumable) or, with
+    ``--backend rllib``, with RLlib PPO on a Ray cluster."""
+    rllib = args.backend == "rllib"
+    if rllib and _missing_ray_extra():
+        return 2
+    if not rllib and _missing_train_extra("train"):
+        return 2
+    if not rllib and (args.address or args.env_runners is not None):
+        print("--address and --env-runners need --backend rllib", file=sys.stderr)
         return 2
     from rallysim.train.config import load_config, parse_overrides
-    from rallysim.train.runner import train_stage
 
     overrides = parse_overrides(args.set)
     for key in ("decisions", "seed", "shuttle", "low_policy", "env"):
@@ -122,7 +150,18 @@ def _train(args: argparse.Namespace) -> int:
     config = load_config(args.stage, args.config, overrides)
     tag = f"{args.stage}_humanlike" if config.env == "humanlike" else args.stage
     out = Path(args.out or f"runs/{tag}_seed{config.seed}")
-    curve = train_stage(config, out, resume=not args.restart, progress=not args.quiet)
+    if rllib:
+        from rallysim.rllib.runner import train_stage_rllib
+
+        # a cluster: spread the sampling; one machine: the driver samples fastest (docs/rllib.md)
+        runners = args.env_runners if args.env_runners is not None else (
+            2 if args.address else 0)
+        curve = train_stage_rllib(config, out, address=args.address, env_runners=runners,
+                                  progress=not args.quiet)
+    else:
+        from rallysim.train.runner import train_stage
+
+        curve = train_stage(config, out, resume=not args.restart, progress=not args.quiet)
     print(f"{args.stage}: {curve['steps']:,} steps in {curve['train_wall_s']:.0f} s "
           f"({curve['steps_per_s']:,.0f}/s); policy written to {out / 'policy.safetensors'}")
     return 0
@@ -190,6 +229,14 @@ def build_parser() -> argparse.ArgumentParser:
     train.add_argument("--out", help="run folder (default runs/STAGE_seedN)")
     train.add_argument("--restart", action="store_true", help="ignore existing checkpoints")
     train.add_argument("--quiet", action="store_true", help="no progress bar")
+    train.add_argument("--backend", choices=("sb3", "rllib"), default="sb3",
+                       help="sb3: Stable-Baselines3 on this machine (default); rllib: RLlib "
+                            "PPO on a Ray cluster (needs rallysim[ray])")
+    train.add_argument("--address", help="rllib: the Ray cluster, auto or HOST:PORT "
+                                         "(default: a local Ray started for the run)")
+    train.add_argument("--env-runners", dest="env_runners", type=_non_negative,
+                       help="rllib: env runners, one CPU each, placed by Ray (default: 2 with "
+                            "--address, else 0: the driver samples)")
     train.set_defaults(run=_train)
 
     repro = sub.add_parser("reproduce", help="the whole pipeline and the paper's Table VII")

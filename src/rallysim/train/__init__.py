@@ -4,7 +4,8 @@
   resume, evaluations and the exported policy; ``rallysim.train.config`` its settings.
 - ``rallysim.train.sb3_vec.NativeVecEnv``: SB3 ``VecEnv`` over a natively batched vector env.
 - ``rallysim.train.export``: ``save_policy`` (safetensors + JSON, no pickle; loaded by
-  ``rallysim.policies.mlp.load_policy``).
+  ``rallysim.policies.mlp.load_policy``) over ``write_policy``, which the RLlib backend
+  (``rallysim.rllib``) shares.
 - ``rallysim.train.warm_start``: the optional behaviour-cloning start of the low level.
 - ``rallysim.train.reproduce``: the whole pipeline and the Table VII report.
 

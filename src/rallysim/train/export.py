@@ -1,7 +1,9 @@
-"""Export trained SB3 actors as plain weights: ``PREFIX.safetensors`` + ``PREFIX.json``.
+"""Export trained actors as plain weights: ``PREFIX.safetensors`` + ``PREFIX.json``.
 
 The format and its NumPy loader live in ``rallysim.policies.mlp`` (no torch needed to run a
-policy); this module writes it from an SB3 ``ActorCriticPolicy``.
+policy). ``write_policy`` writes it from plain arrays, whatever trained them; ``save_policy``
+extracts them from an SB3 ``ActorCriticPolicy`` (``rallysim.rllib.export`` from an RLlib
+RLModule).
 """
 
 from __future__ import annotations
@@ -15,8 +17,10 @@ from safetensors.numpy import save_file
 
 from rallysim.policies.mlp import FORMAT, FORMAT_VERSION, policy_paths, sha256_file
 
+Layers = list[tuple[np.ndarray, np.ndarray]]  # (weight (out, in), bias (out,)) per linear layer
 
-def _actor_layers(model: Any) -> tuple[list[tuple[np.ndarray, np.ndarray]], str, np.ndarray]:
+
+def _actor_layers(model: Any) -> tuple[Layers, str, np.ndarray]:
     """(weight, bias) of the actor's linear layers, its activation and log-std, from an SB3
     ``ActorCriticPolicy`` with an identity (flatten) feature extractor."""
     import torch
@@ -26,7 +30,7 @@ def _actor_layers(model: Any) -> tuple[list[tuple[np.ndarray, np.ndarray]], str,
         raise TypeError("only MLP policies over flat observations can be exported")
     if getattr(model, "_vec_normalize_env", None) is not None:
         raise TypeError("observation normalisation (VecNormalize) is not exported")
-    layers: list[tuple[np.ndarray, np.ndarray]] = []
+    layers: Layers = []
     activation = None
     for module in policy.mlp_extractor.policy_net:
         if isinstance(module, torch.nn.Linear):
@@ -47,11 +51,23 @@ def save_policy(model: Any, path_prefix: str | Path, env_id: str = "RallySim/Sim
                 metadata: dict[str, Any] | None = None) -> tuple[Path, Path]:
     """Write the actor of SB3 PPO ``model`` to ``PREFIX.safetensors`` and ``PREFIX.json``."""
     layers, activation, log_std = _actor_layers(model)
+    return write_policy(layers, activation, log_std, model.observation_space,
+                        model.action_space, path_prefix, env_id=env_id, metadata=metadata)
+
+
+def write_policy(layers: Layers, activation: str, log_std: np.ndarray, obs_space: Any,
+                 act_space: Any, path_prefix: str | Path,
+                 env_id: str = "RallySim/SimpleReturn-v0",
+                 metadata: dict[str, Any] | None = None) -> tuple[Path, Path]:
+    """Write an MLP actor to ``PREFIX.safetensors`` and ``PREFIX.json``.
+
+    ``layers``: (weight (out, in), bias (out,)) per linear layer, ``activation`` between them
+    (none after the last, whose outputs are the Gaussian's means); ``log_std`` (actions,);
+    ``obs_space``/``act_space``: the Gymnasium ``Box`` spaces the actor reads and writes."""
     tensors = {"log_std": np.ascontiguousarray(log_std, np.float32)}
     for i, (w, b) in enumerate(layers):
         tensors[f"layers.{i}.weight"] = np.ascontiguousarray(w, np.float32)
         tensors[f"layers.{i}.bias"] = np.ascontiguousarray(b, np.float32)
-    obs_space, act_space = model.observation_space, model.action_space
     sizes = [int(layers[0][0].shape[1])] + [int(w.shape[0]) for w, _ in layers]
     doc = {
         "format": FORMAT,

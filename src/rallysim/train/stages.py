@@ -12,7 +12,7 @@ judged. ``rallysim.train.runner`` runs any of them the same way.
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from gymnasium.wrappers.vector import RescaleAction
@@ -23,7 +23,9 @@ from rallysim.envs.simple_return_v0 import SimpleReturnVectorEnv
 from rallysim.eval.low_eval import evaluate_return
 from rallysim.eval.rally_eval import rally_lengths_direct, rally_lengths_turns
 from rallysim.train.config import TrainConfig
-from rallysim.train.sb3_vec import NativeVecEnv
+
+if TYPE_CHECKING:  # SB3 is imported where its env is built: the RLlib backend runs without it
+    from rallysim.train.sb3_vec import NativeVecEnv
 
 Act = Callable[[np.ndarray], np.ndarray]
 
@@ -50,6 +52,8 @@ def frozen_low_level(spec: str) -> Callable[[np.ndarray, np.ndarray], np.ndarray
 
 def make_env(config: TrainConfig) -> NativeVecEnv:
     """The stage's training env behind SB3's ``VecEnv`` API (same-step autoreset)."""
+    from rallysim.train.sb3_vec import NativeVecEnv
+
     n, seed = config.n_envs, config.seed
     if config.env == "humanlike" and config.stage == "high":
         from rallysim.envs.humanlike_rally_task import HumanLikeRallyTask

@@ -1,0 +1,93 @@
+"""``TrainConfig`` -> RLlib ``PPOConfig`` (new API stack), the mapping written once.
+
+The table in ``docs/rllib.md`` lists every field. Where the two libraries differ by default,
+RLlib is set to behave as SB3 does: no KL penalty unless ``target_kl`` is set (RLlib adapts a
+penalty toward it; SB3 stops the update early), no clipping of the value loss, a separate
+critic network and a state-independent log-std started at ``log_std_init``. The rollout batch
+counts decisions: env steps for the low level, agent steps (turns, players' decisions) for the
+rallies, whose two players share one RLModule.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from ray.rllib.algorithms.ppo import PPOConfig
+from ray.rllib.core.rl_module.multi_rl_module import MultiRLModuleSpec
+from ray.rllib.core.rl_module.rl_module import RLModuleSpec
+
+from rallysim.rllib.envs import ENV_NAMES, SHARED_MODULE, shared_module
+from rallysim.rllib.module import LOG_STD_INIT_KEY, RallyPPOTorchRLModule
+from rallysim.train.config import TrainConfig
+
+MULTI_AGENT_STAGES = ("high", "mono")
+
+
+def env_config(config: TrainConfig) -> dict[str, Any]:
+    """What an env runner needs to rebuild the stage's env (plain values only)."""
+    out: dict[str, Any] = {"shuttle": config.shuttle}
+    if config.stage == "low":
+        out.update(env=config.env, incoming=config.incoming, keep_bodies=config.keep_bodies)
+    elif config.stage == "high":
+        out["low_policy"] = config.low_policy
+    return out
+
+
+def model_config(config: TrainConfig) -> dict[str, Any]:
+    return {"fcnet_hiddens": list(config.net_arch), "fcnet_activation": config.activation,
+            "vf_share_layers": False, "free_log_std": True,
+            LOG_STD_INIT_KEY: config.log_std_init}
+
+
+def envs_per_runner(config: TrainConfig, env_runners: int) -> int:
+    """Envs each env runner steps: the config's ``n_envs`` shared out (at least one)."""
+    units = config.n_envs // 2 if config.stage == "mono" else config.n_envs
+    return max(1, units // max(1, env_runners))
+
+
+def build_ppo_config(config: TrainConfig, env_runners: int = 2,
+                     sample_timeout_s: float = 600.0) -> PPOConfig:
+    """RLlib PPO settings equivalent to ``config`` (see the module docstring's table).
+
+    ``env_runners``: remote env runners (Ray actors of one CPU each, placed by Ray across the
+    cluster); 0 samples in the driver."""
+    if env_runners < 0:
+        raise ValueError(f"env_runners must be >= 0, got {env_runners}")
+    lr: Any = config.learning_rate
+    if config.anneal_lr:
+        lr = [[0, config.learning_rate], [config.decisions, 0.0]]
+    multi = config.stage in MULTI_AGENT_STAGES
+    spec = RLModuleSpec(module_class=RallyPPOTorchRLModule, model_config=model_config(config))
+    ppo = (
+        PPOConfig()
+        .environment(ENV_NAMES[config.stage], env_config=env_config(config))
+        .env_runners(
+            num_env_runners=env_runners,
+            num_envs_per_env_runner=envs_per_runner(config, env_runners),
+            num_cpus_per_env_runner=1,
+            rollout_fragment_length="auto",
+            sample_timeout_s=sample_timeout_s,
+            # the low-level task is natively batched: one env object steps all of a runner's
+            # games; the multi-agent envs are stepped one by one (RLlib's only mode for them)
+            gym_env_vectorize_mode="vector_entry_point" if not multi else "sync",
+        )
+        .training(
+            lr=lr, gamma=config.gamma, lambda_=config.gae_lambda,
+            clip_param=config.clip_range, entropy_coeff=config.ent_coef,
+            vf_loss_coeff=config.vf_coef, vf_clip_param=float("inf"),
+            grad_clip=config.max_grad_norm, grad_clip_by="global_norm",
+            num_epochs=config.n_epochs, minibatch_size=config.batch_size,
+            train_batch_size_per_learner=config.n_envs * config.n_steps,
+            use_kl_loss=config.target_kl is not None,
+            kl_target=config.target_kl if config.target_kl is not None else 0.01,
+        )
+        .debugging(seed=config.seed)
+    )
+    if multi:
+        ppo = (ppo.multi_agent(policies={SHARED_MODULE}, policy_mapping_fn=shared_module,
+                               count_steps_by="agent_steps")
+               .rl_module(rl_module_spec=MultiRLModuleSpec(
+                   rl_module_specs={SHARED_MODULE: spec})))
+    else:
+        ppo = ppo.rl_module(rl_module_spec=spec)
+    return ppo
