@@ -167,8 +167,8 @@ class _Run:
             meta["final"] = final
         if self.config.stage == "high":
             meta["goal_mapping"] = "goal_m = 4 + 2 * clip(action, -1, 1)"
-        key = "humanlike" if self.config.env == "humanlike" else self.config.stage
-        export_module(self.module(), prefix, env_id=stages.EXPORT_ENV[key], metadata=meta)
+        export_module(self.module(), prefix, env_id=stages.export_env(self.config),
+                      metadata=meta)
 
 
 def train_stage_rllib(config: TrainConfig, out_dir: str | Path, address: str | None = None,
@@ -178,6 +178,9 @@ def train_stage_rllib(config: TrainConfig, out_dir: str | Path, address: str | N
 
     ``address``: a running Ray cluster (``"auto"`` or ``HOST:PORT``; every node needs RallySim
     installed); ``None`` starts a local Ray for this run."""
+    if config.env == "humanlike" and config.stage != "low":
+        raise ValueError("the RLlib backend trains the HUMAN-LIKE low level only; train its "
+                         "high level with --backend sb3")
     require_ray()
     import ray
     import torch
