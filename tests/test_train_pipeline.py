@@ -126,8 +126,11 @@ def test_every_stage_smoke_runs_and_exports_a_loadable_policy(tmp_path, stage):
 
 
 def test_humanlike_low_level_trains_and_reports_its_errors(tmp_path):
-    overrides = {**TINY, "decisions": 1024, "env": "humanlike"}
-    curve = train_stage(load_config("low", None, overrides), tmp_path, progress=False)
+    overrides = {**TINY, "decisions": 1024, "env": "humanlike", "warm_start": "none"}
+    config = load_config("low", None, overrides)
+    # the player's packaged settings apply under the user's
+    assert (config.net_arch, config.warm_start_dagger) == ((256, 256), 4)
+    curve = train_stage(config, tmp_path, progress=False)
     final = curve["final"]
     assert {"hit_rate", "mean_angle_error", "mean_abs_speed_error"} <= set(final)
     assert 0.0 <= final["hit_rate"] <= 1.0

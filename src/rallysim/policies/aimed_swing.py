@@ -214,10 +214,16 @@ class AimedSwing:
                 "yaw": yaw, "flick": flick, "torque": torque, "hips": hips,
                 "hips_vel": hips_vel}
 
+    def imitation_weights(self) -> np.ndarray:
+        """Per-environment weights of the last call's actions for a clone's loss: 10 in the
+        decision of the hit and the one before (the ones that decide it), 1 elsewhere."""
+        plan = self.last_plan
+        return 1.0 + 9.0 * (plan["found"] & (plan["decisions"] <= 1))
+
     def __call__(self, observations: np.ndarray) -> np.ndarray:
         obs = np.asarray(observations, dtype=np.float64)
         n = len(obs)
-        plan = self.plan(obs)
+        plan = self.last_plan = self.plan(obs)
         hips = (obs[:, HIPS] * POSITION_SCALE + POSITION_CENTRE)[:, :2]
         now = plan["found"] & (plan["decisions"] == 0)
         # The hips chase a waypoint that reaches the meeting point moving at the hit's hips

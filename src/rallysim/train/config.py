@@ -64,6 +64,8 @@ class TrainConfig:
     warm_start_epochs: int = 60
     warm_start_log_std: float = -1.5
     warm_start_dagger: int = 0  # rounds of DAgger after the clone (a quarter of the data each)
+    warm_start_batch_size: int = 4096
+    warm_start_lr_decay: bool = False  # cosine decay of the clone's learning rate
 
     def __post_init__(self) -> None:
         if self.stage not in STAGES:

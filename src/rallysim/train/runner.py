@@ -189,7 +189,9 @@ def warm_start(model: Any, config: TrainConfig, progress: bool) -> dict[str, Any
                              epochs=config.warm_start_epochs,
                              log_std=config.warm_start_log_std, shuttle=config.shuttle,
                              seed=config.seed + 1_000_003, player=config.env,
-                             dagger_rounds=config.warm_start_dagger)
+                             dagger_rounds=config.warm_start_dagger,
+                             batch_size=config.warm_start_batch_size,
+                             lr_decay=config.warm_start_lr_decay)
     return {**result, "teacher": name, "wall_s": round(time.perf_counter() - t, 2)}
 
 

@@ -33,19 +33,25 @@ def _task_env(player: str, n_envs: int, shuttle: str) -> Any:
 
 def teacher_dataset(teacher: Act, n_envs: int, decisions: int, gamma: float,
                     shuttle: str = "paper", seed: int = 0, player: str = "simple",
-                    actor: Act | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(obs, teacher's actions, discounted returns) of complete episodes played by ``actor``
-    (default: the teacher itself) in the ``player``'s low-level task."""
+                    actor: Act | None = None
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(obs, teacher's actions, discounted returns, sample weights) of complete episodes
+    played by ``actor`` (default: the teacher itself) in the ``player``'s low-level task. A
+    teacher with ``imitation_weights()`` weighs its last call's actions; else all weigh 1."""
     env = _task_env(player, n_envs, shuttle)
     obs, _ = env.reset(seed=seed)
     steps = max(1, decisions // n_envs)
     all_obs = np.empty((steps, n_envs, obs.shape[1]), np.float32)
     all_act = np.empty((steps, n_envs, env.single_action_space.shape[0]), np.float32)
     rewards = np.empty((steps, n_envs))
+    weights = np.ones((steps, n_envs), np.float32)
     dones = np.empty((steps, n_envs), bool)
+    weigh = getattr(teacher, "imitation_weights", None)
     for t in range(steps):
         act = np.asarray(teacher(obs), np.float32)
         all_obs[t], all_act[t] = obs, act
+        if weigh is not None:
+            weights[t] = weigh()
         if actor is not None:
             act = np.asarray(actor(obs), np.float32)
         obs, r, term, trunc, _ = env.step(act)
@@ -58,19 +64,20 @@ def teacher_dataset(teacher: Act, n_envs: int, decisions: int, gamma: float,
         complete |= dones[t]
         running = rewards[t] + gamma * running * ~dones[t]
         returns[t], valid[t] = running, complete
-    return all_obs[valid], all_act[valid], returns[valid].astype(np.float32)
+    return all_obs[valid], all_act[valid], returns[valid].astype(np.float32), weights[valid]
 
 
 def behaviour_clone(model: PPO, teacher: Act, decisions: int, epochs: int = 30,
                     batch_size: int = 4096, lr: float = 1e-3, log_std: float = -1.5,
                     shuttle: str = "paper", seed: int = 0, player: str = "simple",
-                    dagger_rounds: int = 0) -> dict[str, float]:
-    """Fit ``model``'s actor mean and critic to ``teacher``; return the final losses."""
+                    dagger_rounds: int = 0, lr_decay: bool = False) -> dict[str, float]:
+    """Fit ``model``'s actor mean and critic to ``teacher``; return the final losses.
+    ``lr_decay``: a cosine decay of the learning rate to 5 % over each fit's epochs."""
     data = [teacher_dataset(teacher, 256, decisions, model.gamma, shuttle, seed, player)]
     policy = model.policy
     optimiser = torch.optim.Adam(policy.parameters(), lr=lr)
     gen = torch.Generator().manual_seed(seed)
-    losses = _fit(policy, optimiser, gen, data, epochs, batch_size)
+    losses = _fit(policy, optimiser, gen, data, epochs, batch_size, lr, lr_decay)
     for k in range(dagger_rounds):
         def student(obs: np.ndarray) -> np.ndarray:
             with torch.no_grad():
@@ -78,26 +85,30 @@ def behaviour_clone(model: PPO, teacher: Act, decisions: int, epochs: int = 30,
 
         data.append(teacher_dataset(teacher, 256, max(256, decisions // 4), model.gamma,
                                     shuttle, seed + 7919 * (k + 1), player, actor=student))
-        losses = _fit(policy, optimiser, gen, data, max(1, epochs // 2), batch_size)
+        losses = _fit(policy, optimiser, gen, data, max(1, epochs // 2), batch_size, lr,
+                      lr_decay)
     with torch.no_grad():
         policy.log_std.fill_(log_std)
     return {"samples": float(sum(len(d[0]) for d in data)), **losses}
 
 
-def _fit(policy: Any, optimiser: Any, gen: Any,
-         data: list[tuple[np.ndarray, np.ndarray, np.ndarray]], epochs: int,
-         batch_size: int) -> dict[str, float]:
+def _fit(policy: Any, optimiser: Any, gen: Any, data: list[tuple[np.ndarray, ...]],
+         epochs: int, batch_size: int, lr: float, lr_decay: bool) -> dict[str, float]:
     o = torch.as_tensor(np.concatenate([d[0] for d in data]))
     a = torch.as_tensor(np.concatenate([d[1] for d in data]))
     g = torch.as_tensor(np.concatenate([d[2] for d in data]))[:, None]
+    w = torch.as_tensor(np.concatenate([d[3] for d in data]))[:, None]
     actor_loss = critic_loss = torch.zeros(())
-    for _ in range(epochs):
+    for epoch in range(epochs):
+        if lr_decay:
+            for group in optimiser.param_groups:
+                group["lr"] = lr * (0.05 + 0.475 * (1.0 + np.cos(np.pi * epoch / epochs)))
         for idx in torch.randperm(len(o), generator=gen).split(batch_size):
             features = policy.extract_features(o[idx])
             latent_pi, latent_vf = policy.mlp_extractor(features)
             mean = policy.action_net(latent_pi)
             value = policy.value_net(latent_vf)
-            actor_loss = torch.mean((mean - a[idx]) ** 2)
+            actor_loss = torch.mean(w[idx] * (mean - a[idx]) ** 2)
             critic_loss = torch.mean((value - g[idx]) ** 2)
             optimiser.zero_grad()
             (actor_loss + 0.5 * critic_loss).backward()
