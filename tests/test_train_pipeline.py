@@ -161,6 +161,15 @@ def test_humanlike_warm_start_clones_aimed_swing_with_dagger(tmp_path):
     result = warm_start(model, config, progress=False)
     after = np.mean((model.predict(obs, deterministic=True)[0] - teacher) ** 2)
     assert result["teacher"] == "AimedSwing"
+    # decisions = 0: the clone alone is trained and exported, no PPO after it
+    clone_only = load_config("low", None, {**TINY, "env": "humanlike", "decisions": 0,
+                                           "warm_start_decisions": 4096, "warm_start_epochs": 2,
+                                           "warm_start_dagger": 0, "eval_episodes": 8})
+    curve = train_stage(clone_only, tmp_path / "clone", progress=True)
+    assert curve["steps"] == 0 and curve["final"]["episodes"] == 8
+    assert load_policy(tmp_path / "clone" / "policy")(np.zeros((1, 85))).shape == (1, 15)
+    with pytest.raises(ValueError, match="decisions must be >= 1"):
+        load_config("low", None, {"decisions": 0, "warm_start": "none"})
     # the clone's 8192 decisions, then one DAgger round's 2048, less the unfinished episodes
     assert 0.3 * (8192 + 2048) < result["samples"] <= 8192 + 2048
     assert after < 0.5 * before

@@ -25,6 +25,7 @@ class TrainConfig:
     env: str = "simple"  # the player, "simple" or "humanlike" (low and high stages)
     shuttle: str = "paper"
     decisions: int = 3_000_000  # budget, in SB3 steps (decisions; turns for the high level)
+    # (0 with a warm start: the clone alone, no PPO)
     seed: int = 0
     # rollout and update (SB3 PPO)
     n_envs: int = 64
@@ -78,8 +79,10 @@ class TrainConfig:
             raise ValueError(f"activation must be 'tanh' or 'relu', got {self.activation!r}")
         for name in ("decisions", "n_envs", "n_steps", "batch_size", "n_epochs",
                      "eval_episodes", "checkpoint_every"):
-            if getattr(self, name) < 1:
-                raise ValueError(f"{name} must be >= 1, got {getattr(self, name)}")
+            # decisions = 0 with a warm start: the clone is the policy (no PPO after it)
+            floor = 0 if name == "decisions" and self.warm_start != "none" else 1
+            if getattr(self, name) < floor:
+                raise ValueError(f"{name} must be >= {floor}, got {getattr(self, name)}")
         if self.warm_start not in ("none", "scripted"):
             raise ValueError(f"warm_start must be 'none' or 'scripted', got {self.warm_start!r}")
         if self.warm_start != "none" and self.stage != "low":

@@ -95,8 +95,10 @@ class _Monitor:
                **result}
         self.eval_wall += time.perf_counter() - t
         self.curve["evals"].append(row)
+        logger = getattr(model, "_logger", None)  # none before any PPO (a clone alone)
         for key, value in result.items():
-            model.logger.record(f"eval/{key}", value)
+            if logger is not None:
+                logger.record(f"eval/{key}", value)
         message = f"[{self.config.stage}] {row['steps']:>10,} steps: " + stages.headline(
             self.config, result)
         if self.bar is not None:
