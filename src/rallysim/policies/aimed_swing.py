@@ -36,7 +36,7 @@ from rallysim.assets import asset_path
 from rallysim.core.game import PHYSICS_DT, PHYSICS_STEPS_PER_DECISION
 from rallysim.core.humanlike import JOINTS, HumanLikeBodies, humanlike_geometry
 from rallysim.core.shuttle import ShuttleState, make_shuttle_model
-from rallysim.envs.humanlike_obs import HIPS, RACKET, SHUTTLE
+from rallysim.envs.humanlike_obs import HIPS, SHUTTLE
 from rallysim.envs.simple_obs import POSITION_CENTRE, POSITION_SCALE, SHUTTLE_SPEED_SCALE
 
 TARGET = slice(82, 85)  # the task's target racket velocity / 5 m/s
@@ -46,7 +46,6 @@ RAISE_RANGE = np.radians(np.arange(-60.0, 60.01, 1.0))  # upper_arm_x grid of th
 TRUNK_MAX = np.radians(30.0)  # spine + chest turn, +-15 deg each
 HALF_DEPTH = 0.125  # the hit volume's half thickness along the face normal (0.025 + 0.1 m)
 FACE_TOP = 0.80  # m above the hips centre: the highest planned face (1.7 m)
-FACE_BOTTOM = 0.20  # m: the lowest (1.1 m)
 HIPS_MARGIN = 0.08  # m kept from the hips' range edges (a clamp would change the velocity)
 J = {name: i for i, name in enumerate(JOINTS)}
 HAND_TARGET = 2 + J["hand_x"]  # action indices
@@ -186,16 +185,6 @@ class AimedSwing:
         found = ok.any(axis=1)
         k = np.where(found, ok.argmax(axis=1), 0)
         rows = np.arange(n)
-        # Of the first such decision and the next (if the face reaches that low), the one whose
-        # face height is nearer the face's height now: a player (or a clone of this one) keeps
-        # the meeting it has set its arm for, instead of switching near the boundary between
-        # the two.
-        later = np.minimum(k + 1, len(starts) - 1)
-        reach_later = found & falling[rows, later] & (z_need[rows, later] >= FACE_BOTTOM)
-        face_now = (obs[:, RACKET] * POSITION_SCALE + POSITION_CENTRE)[:, 2] \
-            - HumanLikeBodies.hips_height
-        nearer = np.abs(z_need[rows, later] - face_now) < np.abs(z_need[rows, k] - face_now)
-        k = np.where(reach_later & nearer, later, k)
         z_rel = z_need[rows, k]
         raise_ = self.table.raise_for_height(z_rel)
         pose = self.table.at(raise_)
