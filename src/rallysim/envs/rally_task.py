@@ -61,7 +61,7 @@ class RallyTask:
     obs_size = RALLY_OBS_SIZE
     action_size = 3
     goal_size = 1  # the landing depth (m) of the turn-based view
-    default_goal = (4.0,)
+    default_goal: float | tuple[float, ...] = 4.0  # one goal, in its own shape (scalar: size 1)
 
     def __init__(self, num_rallies: int, config: RallyConfig | None = None,
                  seed: int | None = None) -> None:
@@ -113,6 +113,13 @@ class RallyTask:
         opp[..., 0] = -g.bodies.base_x[:, ::-1]  # its own-frame x, turned 180 degrees about z
         opp[..., 2] = g.bodies.base_z
         return opp
+
+    @staticmethod
+    def resolve_low_level(low_level: Any, seed: int | None = None) -> Any:
+        """The turn-based view's low level from a name or callable (``turn_task``'s)."""
+        from rallysim.envs.turn_task import resolve_low_level
+
+        return resolve_low_level(low_level, seed)
 
     @staticmethod
     def clip_goals(goals: np.ndarray) -> np.ndarray:

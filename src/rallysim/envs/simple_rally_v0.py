@@ -329,7 +329,6 @@ class SimpleRallyTurnAECEnv(AECEnv):
         size = self.rally.goal_size
         if goal.shape != (size,):
             raise ValueError(f"the action is one goal, shape ({size},), got {np.shape(action)}")
-        goal = goal if size > 1 else goal[0:1]
         self._cumulative_rewards[agent] = 0.0
         out = self.turns.step(goal)
         for i, a in enumerate(AGENTS):
@@ -404,8 +403,7 @@ class SimpleRallyTurnVectorEnv(NativeVectorEnv):
         playing = np.setdiff1d(np.arange(self.num_units), self._pending)
         if len(self._pending):
             goals = goals.copy()
-            goals[self._pending] = self.rally.default_goal if size > 1 \
-                else self.rally.default_goal[0]
+            goals[self._pending] = self.rally.default_goal
         out = self.turns.step(goals, playing)
         acted = out["acted"]
         self.decisions_simulated += int(out["decisions"].sum())

@@ -17,7 +17,7 @@ import numpy as np
 from rallysim.envs.rally_task import RallyConfig, RallyTask
 
 LowLevel = Callable[[np.ndarray, np.ndarray], np.ndarray]
-DEFAULT_GOAL = RallyTask.default_goal[0]
+DEFAULT_GOAL = RallyTask.default_goal
 
 
 def resolve_low_level(low_level: LowLevel | str, seed: int | None = None) -> LowLevel:
@@ -50,20 +50,17 @@ class TurnTask:
                  config: RallyConfig | None = None, seed: int | None = None,
                  rally: type[RallyTask] = RallyTask) -> None:
         self.rally = rally(num_rallies, config, seed)
-        resolve = getattr(rally, "resolve_low_level", None)
-        self.low_level = (resolve or resolve_low_level)(low_level, seed)
+        self.low_level = rally.resolve_low_level(low_level, seed)
         self.n = num_rallies
         # (N, 2) depths for SIMPLE players; (N, 2, goal_size) where a goal holds more
-        size = rally.goal_size
-        self.goals = np.empty((num_rallies, 2) + ((size,) if size > 1 else ()))
-        self.goals[:] = rally.default_goal if size > 1 else rally.default_goal[0]
+        self.goals = np.empty((num_rallies, 2, *np.shape(rally.default_goal)))
+        self.goals[:] = rally.default_goal
         self.turn_player = np.zeros(num_rallies, np.int64)
 
     def reset(self, envs: np.ndarray) -> None:
         envs = np.asarray(envs, np.int64)
         self.rally.reset(envs)
-        self.goals[envs] = self.rally.default_goal if self.goals.ndim > 2 \
-            else self.rally.default_goal[0]
+        self.goals[envs] = self.rally.default_goal
         self.turn_player[envs] = self.rally.turn_started[envs].argmax(axis=1)
 
     def observe(self) -> np.ndarray:

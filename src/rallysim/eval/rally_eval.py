@@ -55,7 +55,7 @@ def rally_lengths_turns(high_level: HighLevel, low_level: LowLevel | str, n_rall
         if not len(playing):
             return lengths
         goals = np.empty((n_rallies, *turns.goals.shape[2:]))
-        goals[:] = rally.default_goal if rally.goal_size > 1 else rally.default_goal[0]
+        goals[:] = rally.default_goal
         goals[playing] = np.asarray(high_level(turns.observe()[playing])).reshape(
             goals[playing].shape)
         out = turns.step(goals, playing)

@@ -118,11 +118,18 @@ def _turn(v: np.ndarray, yaw: np.ndarray) -> np.ndarray:
     return np.stack([c * v[:, 0] - s * v[:, 1], s * v[:, 0] + c * v[:, 1], v[:, 2]], axis=1)
 
 
+def _chord_terms(axis: np.ndarray, lever: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rodrigues' form of a point at ``lever`` turned by e about ``axis``: its displacement is
+    across * sin(e) + inward * (1 - cos(e))."""
+    across = np.cross(axis, lever)
+    inward = axis * np.einsum("ij,ij->i", axis, lever)[:, None] - lever
+    return across, inward
+
+
 def wrist_flick(axis: np.ndarray, lever: np.ndarray, rise: np.ndarray) -> np.ndarray:
     """Wrist angles e (n,) whose rotation about ``axis`` moves the face centre at ``lever``
     up by ``rise`` m: Rodrigues' chord, solved by Newton's method."""
-    across = np.cross(axis, lever)
-    inward = axis * np.einsum("ij,ij->i", axis, lever)[:, None] - lever
+    across, inward = _chord_terms(axis, lever)
     a, b = across[:, 2], inward[:, 2]
     e = rise / np.where(np.abs(a) > 1e-6, a, 1e-6)
     for _ in range(6):
@@ -133,8 +140,7 @@ def wrist_flick(axis: np.ndarray, lever: np.ndarray, rise: np.ndarray) -> np.nda
 
 def chord(axis: np.ndarray, lever: np.ndarray, e: np.ndarray) -> np.ndarray:
     """The face centre's displacement (n, 3) when the wrist turns by ``e``."""
-    across = np.cross(axis, lever)
-    inward = axis * np.einsum("ij,ij->i", axis, lever)[:, None] - lever
+    across, inward = _chord_terms(axis, lever)
     return across * np.sin(e)[:, None] + inward * (1.0 - np.cos(e))[:, None]
 
 

@@ -165,8 +165,8 @@ class _Run:
                 "config": self.config.to_dict()}
         if final is not None:
             meta["final"] = final
-        if self.config.stage == "high":
-            meta["goal_mapping"] = "goal_m = 4 + 2 * clip(action, -1, 1)"
+        if (mapping := stages.goal_mapping(self.config)) is not None:
+            meta["goal_mapping"] = mapping
         export_module(self.module(), prefix, env_id=stages.export_env(self.config),
                       metadata=meta)
 

@@ -203,9 +203,6 @@ def export_policy(model: Any, config: TrainConfig, prefix: Path, final: dict[str
 
     meta = {"stage": config.stage, "seed": config.seed, "steps": int(model.num_timesteps),
             "final": final, "config": config.to_dict()}
-    if config.stage == "high" and config.env == "humanlike":
-        meta["goal_mapping"] = ("target racket velocity: speed 1.5 + 1.5 (a0 + 1) m/s, elevation "
-                                "40 + 5 (a1 + 1) deg, azimuth 30 a2 deg (own frame)")
-    elif config.stage == "high":
-        meta["goal_mapping"] = "goal_m = 4 + 2 * clip(action, -1, 1)"
+    if (mapping := stages.goal_mapping(config)) is not None:
+        meta["goal_mapping"] = mapping
     save_policy(model, prefix, env_id=stages.export_env(config), metadata=meta)

@@ -36,6 +36,16 @@ EXPORT_ENV = {"low": "RallySim/SimpleReturn-v0", "high": "RallySim/SimpleRallyTu
               "humanlike_high": "rallysim.envs.humanlike_rally_v0:HumanLikeRallyTurnVectorEnv"}
 
 
+def goal_mapping(config: TrainConfig) -> str | None:
+    """How a high-level policy's action becomes its goal (written into its export)."""
+    if config.stage != "high":
+        return None
+    if config.env == "humanlike":
+        return ("target racket velocity: speed 1.5 + 1.5 (a0 + 1) m/s, elevation "
+                "40 + 5 (a1 + 1) deg, azimuth 30 a2 deg (own frame)")
+    return "goal_m = 4 + 2 * clip(action, -1, 1)"
+
+
 def export_env(config: TrainConfig) -> str:
     """The env id an exported policy of ``config``'s stage drives."""
     if config.env == "humanlike":
