@@ -29,6 +29,7 @@ import numpy as np
 import yaml
 
 from rallysim.rllib import require_ray
+from rallysim.train.checkpoint import json_default
 from rallysim.train.config import TrainConfig
 
 BACKEND = "rllib"
@@ -219,7 +220,7 @@ def train_stage_rllib(config: TrainConfig, out_dir: str | Path, address: str | N
         curve["train_wall_s"] = round(run.train_wall(), 2)
         curve["steps_per_s"] = round(curve["steps"] / max(curve["train_wall_s"], 1e-9), 1)
         run.export(out / "policy", final)
-        (out / "curve.json").write_text(json.dumps(curve, indent=1, default=_plain))
+        (out / "curve.json").write_text(json.dumps(curve, indent=1, default=json_default))
         return curve
     finally:
         if algo is not None:
@@ -227,10 +228,3 @@ def train_stage_rllib(config: TrainConfig, out_dir: str | Path, address: str | N
         if started:
             ray.shutdown()
 
-
-def _plain(value: Any) -> Any:
-    if isinstance(value, np.generic):
-        return value.item()
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    raise TypeError(f"not JSON serialisable: {type(value).__name__}")

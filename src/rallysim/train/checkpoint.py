@@ -85,7 +85,7 @@ def save_checkpoint(run_dir: Path, model: Any, meta: dict[str, Any], keep: int =
            "weights": weights.name, "weights_sha256": sha256_file(weights),
            "optimizer": opt_doc, **meta}
     path = folder / f"step_{step:012d}.json"
-    _atomic_write(path, json.dumps(doc, indent=1, default=_json_default).encode())
+    _atomic_write(path, json.dumps(doc, indent=1, default=json_default).encode())
     _prune(folder, keep)
     return path
 
@@ -97,13 +97,13 @@ def _prune(folder: Path, keep: int) -> None:
         old.with_suffix(".safetensors").unlink(missing_ok=True)
 
 
-def _json_default(value: Any) -> Any:
+def json_default(value: Any) -> Any:
+    """``json.dumps``'s ``default`` for the NumPy scalars and arrays in run records (json
+    writes tuples as lists itself)."""
     if isinstance(value, np.generic):
         return value.item()
     if isinstance(value, np.ndarray):
         return value.tolist()
-    if isinstance(value, tuple):
-        return list(value)
     raise TypeError(f"not JSON serialisable: {type(value).__name__}")
 
 
@@ -139,8 +139,8 @@ def read_checkpoint(path: Path, expect: dict[str, Any] | None = None,
         raise CheckpointError(f"checkpoint tensors {weights} are corrupted (SHA-256 differs "
                               "from the one recorded in its JSON)")
     for key, value in (expect or {}).items():
-        if json.loads(json.dumps(doc.get(key), default=_json_default)) != json.loads(
-                json.dumps(value, default=_json_default)):
+        if json.loads(json.dumps(doc.get(key), default=json_default)) != json.loads(
+                json.dumps(value, default=json_default)):
             raise CheckpointError(f"checkpoint {path} was made with {key}={doc.get(key)!r}, "
                                   f"this run has {key}={value!r}: use another --out folder "
                                   "or the same settings")

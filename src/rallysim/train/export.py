@@ -16,6 +16,7 @@ import numpy as np
 from safetensors.numpy import save_file
 
 from rallysim.policies.mlp import FORMAT, FORMAT_VERSION, policy_paths, sha256_file
+from rallysim.train.checkpoint import json_default
 
 Layers = list[tuple[np.ndarray, np.ndarray]]  # (weight (out, in), bias (out,)) per linear layer
 
@@ -88,13 +89,6 @@ def write_policy(layers: Layers, activation: str, log_std: np.ndarray, obs_space
     weights_path.parent.mkdir(parents=True, exist_ok=True)
     save_file(tensors, str(weights_path), metadata={"format": FORMAT})
     doc["weights_sha256"] = sha256_file(weights_path)
-    json_path.write_text(json.dumps(doc, indent=1, default=_json_default))
+    json_path.write_text(json.dumps(doc, indent=1, default=json_default))
     return weights_path, json_path
 
-
-def _json_default(value: Any) -> Any:
-    if isinstance(value, np.generic):
-        return value.item()
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    raise TypeError(f"not JSON serialisable: {type(value).__name__}")
