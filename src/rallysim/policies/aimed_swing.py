@@ -125,21 +125,20 @@ def _turn(v: np.ndarray, yaw: np.ndarray) -> np.ndarray:
     return np.stack([c * v[:, 0] - s * v[:, 1], s * v[:, 0] + c * v[:, 1], v[:, 2]], axis=1)
 
 
-def _chord_terms(axis: np.ndarray, lever: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def chord_terms(axis: np.ndarray, lever: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Rodrigues' form of a point at ``lever`` turned by e about ``axis``: its displacement is
-    across * sin(e) + inward * (1 - cos(e))."""
+    across * sin(e) + inward * (1 - cos(e)); returns (across, inward), each (n, 3)."""
     across = np.cross(axis, lever)
     inward = axis * np.einsum("ij,ij->i", axis, lever)[:, None] - lever
     return across, inward
 
 
-def wrist_flick(axis: np.ndarray, lever: np.ndarray, rise: np.ndarray, before: float = 0.0,
+def wrist_flick(terms: tuple[np.ndarray, np.ndarray], rise: np.ndarray, before: float = 0.0,
                 after: float = 1.0) -> np.ndarray:
-    """Wrist angles e (n,) such that turning about ``axis`` from ``before`` e to ``after`` e
-    moves the face centre at ``lever`` up by ``rise`` m: Rodrigues' chord, solved by Newton's
-    method."""
-    across, inward = _chord_terms(axis, lever)
-    a, b = across[:, 2], inward[:, 2]
+    """Wrist angles e (n,) such that turning from ``before`` e to ``after`` e moves the face
+    centre up by ``rise`` m (``terms``: ``chord_terms`` of the wrist's axis and the face's
+    lever), solved by Newton's method."""
+    a, b = terms[0][:, 2], terms[1][:, 2]
     e = rise / np.where(np.abs(a) > 1e-6, a, 1e-6) / (after - before)
     for _ in range(8):
         f = a * (np.sin(after * e) - np.sin(before * e)) \
@@ -150,9 +149,9 @@ def wrist_flick(axis: np.ndarray, lever: np.ndarray, rise: np.ndarray, before: f
     return e
 
 
-def chord(axis: np.ndarray, lever: np.ndarray, e: np.ndarray) -> np.ndarray:
+def chord(terms: tuple[np.ndarray, np.ndarray], e: np.ndarray) -> np.ndarray:
     """The face centre's displacement (n, 3) when the wrist turns by ``e``."""
-    across, inward = _chord_terms(axis, lever)
+    across, inward = terms
     return across * np.sin(e)[:, None] + inward * (1.0 - np.cos(e))[:, None]
 
 
@@ -195,12 +194,15 @@ class AimedSwing:
         spd = PHYSICS_STEPS_PER_DECISION
         starts = np.arange(0, self.horizon_steps, spd)  # physics steps of decision starts
         j = self.hit_step
+        # The wrist accelerates evenly from rest: its angle after step i is i (i + 1) / 2 times
+        # step 1's turn e_1, so step j turns it from `before` to `after` e_1.
+        before, after = j * (j - 1) / 2, j * (j + 1) / 2
         mid = 0.5 * (p[:, starts + j - 1] + p[:, starts + j])  # the shuttle half into step j
         # The face centre wanted at each decision start: the shuttle on the hit volume's top
-        # half into step j, the face having risen by then (a constant angular acceleration
-        # from rest: the wrist's angle after step i is (i (i + 1) / 2) e_1, so step j rises
-        # j times step 1's chord and half of it is S(j - 1) + j / 2 step-1 chords).
-        risen = (j * (j - 1) / 2 + j / 2) / j
+        # half into step j, the face having risen by then (in small-angle chords: step j rises
+        # the target's vertical travel, so half into it the face has risen (before + after) / 2
+        # over (after - before) of that travel, j / 2).
+        risen = 0.5 * (before + after) / (after - before)
         face_z = mid[..., 2] - HALF_DEPTH - risen * PHYSICS_DT * goal[:, None, 2]
         falling = v[:, starts, 2] < 0.0
         z_need = face_z - HumanLikeBodies.hips_height
@@ -224,11 +226,10 @@ class AimedSwing:
         yaw = np.array([np.interp(r, x, self._yaw) for r, x in zip(room[:, 0], reach_x,
                                                                    strict=True)])
         face = _turn(pose["face"], yaw)
-        axis, lever = _turn(pose["axis"], yaw), _turn(pose["lever"], yaw)
-        before, after = j * (j - 1) / 2, j * (j + 1) / 2  # wrist angles / e_1 around step j
-        flick = wrist_flick(axis, lever, goal[:, 2] * PHYSICS_DT, before, after)
-        start = chord(axis, lever, before * flick)  # the face's travel before step j
-        move = chord(axis, lever, after * flick) - start  # ... and in it
+        terms = chord_terms(_turn(pose["axis"], yaw), _turn(pose["lever"], yaw))
+        flick = wrist_flick(terms, goal[:, 2] * PHYSICS_DT, before, after)
+        start = chord(terms, before * flick)  # the face's travel before step j
+        move = chord(terms, after * flick) - start  # ... and in it
         hips_vel = goal[:, :2] - move[:, :2] / PHYSICS_DT
         # hips at the decision start: the face's horizontal position half into step j is mid
         hips = face_mid[:, :2] - (j - 0.5) * PHYSICS_DT * hips_vel \
