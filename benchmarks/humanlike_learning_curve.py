@@ -4,8 +4,9 @@ speed error of deterministic evaluations against training decisions, for one or 
 
 Run: ``python benchmarks/humanlike_learning_curve.py RUN_DIR[=LABEL] ... --out PNG``
 
-Each run folder's ``curve.json`` gives the evaluations (every ``eval_every`` decisions). A run
-with a warm start also plots, at x = 0, the clone's evaluation before PPO (its first entry).
+Each run folder's ``curve.json`` gives the evaluations: a warm start's after the clone and
+after each DAgger round (x: the decisions the teacher labelled so far), then PPO's every
+``eval_every`` decisions (x: those decisions, after the labelled ones).
 """
 
 from __future__ import annotations
@@ -34,13 +35,18 @@ def main() -> int:
     for spec in args.runs:
         folder, _, label = spec.partition("=")
         curve = json.loads((Path(folder) / "curve.json").read_text())
-        evals = sorted(curve["evals"], key=lambda e: e["steps"])
+        rounds = curve.get("warm_start", {}).get("rounds", [])
+        labelled = rounds[-1]["labelled_decisions"] if rounds else 0
+        points = [(r["labelled_decisions"], r) for r in rounds]
+        if curve["steps"] > 0 or not rounds:  # PPO's evaluations (a clone alone has just one)
+            points += [(labelled + e["steps"], e) for e in curve["evals"]]
+        points.sort(key=lambda p: p[0])
         for ax, (key, _, _, _) in zip(axes, PANELS, strict=True):
-            xs = [e["steps"] / 1e6 for e in evals]
-            ax.plot(xs, [e[key] for e in evals], marker="o", label=label or folder)
+            ax.plot([x / 1e6 for x, _ in points], [e[key] for _, e in points], marker="o",
+                    label=label or folder)
     for ax, (_, title, target, side) in zip(axes, PANELS, strict=True):
         ax.axhline(target, color="red", ls="--", lw=1, label=f"target ({side})")
-        ax.set_xlabel("PPO decisions (millions)")
+        ax.set_xlabel("decisions: labelled by the teacher, then PPO's (millions)")
         ax.set_title(title)
         ax.grid(alpha=0.3)
     axes[1].set_yscale("log")

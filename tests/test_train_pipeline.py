@@ -129,7 +129,7 @@ def test_humanlike_low_level_trains_and_reports_its_errors(tmp_path):
     overrides = {**TINY, "decisions": 1024, "env": "humanlike", "warm_start": "none"}
     config = load_config("low", None, overrides)
     # the player's packaged settings apply under the user's
-    assert (config.net_arch, config.warm_start_dagger) == ((256, 256), 4)
+    assert (config.net_arch, config.warm_start_dagger) == ((256, 256), 6)
     curve = train_stage(config, tmp_path, progress=False)
     final = curve["final"]
     assert {"hit_rate", "mean_angle_error", "mean_abs_speed_error"} <= set(final)
@@ -173,6 +173,11 @@ def test_humanlike_warm_start_clones_aimed_swing_with_dagger(tmp_path):
     # the clone's 8192 decisions, then one DAgger round's 2048, less the unfinished episodes
     assert 0.3 * (8192 + 2048) < result["samples"] <= 8192 + 2048
     assert after < 0.5 * before
+    # the clone's learning curve: evaluated after the clone and after the DAgger round
+    rounds = result["rounds"]
+    assert [r["labelled_decisions"] for r in rounds] == [8192, 8192 + 2048]
+    assert all(r["episodes"] == config.eval_episodes and 0 <= r["hit_rate"] <= 1
+               for r in rounds)
 
 
 def test_humanlike_high_level_trains_over_the_scripted_low_level(tmp_path):

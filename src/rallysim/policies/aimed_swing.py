@@ -1,37 +1,36 @@
 """A scripted HUMAN-LIKE player that hits with a commanded racket velocity (``AimedSwing``).
 
-The racket's velocity at the impact is the sum of two parts the servo and the hips produce
-exactly (see docs/humanlike.md, "Drive"):
+The racket face's velocity at the impact is the sum of two motions that the drive makes exact
+(docs/humanlike.md, "Drive"):
 
-- the hips, kinematic, move at 5 a m/s in the horizontal plane for the whole decision;
-- a wrist at rest, given a far target and a torque limit, turns with a constant angular
-  acceleration (limit - gravity torque) / inertia (the servo pushes a far target with its whole
-  limit; the other joints hold, so the wrist's inertia is its own diagonal entry): by e in the
-  first physics step of a decision and by 2 e in the second (semi-implicit Euler), so the racket
-  face moves by the chord between those angles: the wrist's strength sets the vertical speed.
+- the hips are kinematic: they move at 5 a m/s in the horizontal plane for a whole decision;
+- the straight arm turns about the shoulder's forward axis (the raise, ``upper_arm_x``). That
+  hinge is the first of the arm's chain and its axis stays horizontal, so while every other
+  joint holds still (their servos are deadbeat) the arm turns as one rigid body:
+  I w' = L - G cos(theta), with I and G constants of the pose and L the upper arm's strength
+  whenever the servo pushes a far target (it then saturates at exactly L). ``ArmSwing``
+  integrates that with MuJoCo's own semi-implicit Euler step, so its angles are the
+  simulator's to rounding.
 
-So the player holds a pose in which the face looks up, walks the hips so that at some decision
-start the shuttle sits just above the face's hit volume, and at that decision's start flicks the
-wrist up (vertical part of the target) while the hips move at the rest of the target (horizontal
-part). The shuttle enters the hit volume in the decision's physics step ``hit_step`` (the first
-by default), the one the rulebook measures the racket velocity over.
+The swing has two decisions. The player holds a pose (arm straight, swung 30 deg forward, face
+level, raised to theta0) while its hips walk to the meeting; then
 
-Why ``hit_step = 2`` exists: a deadbeat servo given a slightly different target reaches it in
-one step and stands still in the next. Small errors in the pose targets (a raise 0.003 off moves
-the face at 0.2 m/s through a step) so move the arm in the first step only; meeting the shuttle
-in the second made the aim about 4x less sensitive to noise on the upper arm's targets and 80x
-less to the trunk's. A clone of it was measured no better (docs/humanlike.md, Training): its
-errors come from where its hips arrive, not from the pose, so the default stays the first step.
+1. *accelerate*: the raise's target jumps to the top of its range and the strength L_acc speeds
+   the arm up;
+2. *coast*: the strength drops to the gravity torque at the meeting angle, so the arm turns at
+   an almost constant rate through the whole decision: from one physics step to the next the
+   face's vertical speed changes by at most 2.5 % and its direction by w dt (at most 4.4 deg).
 
-Why the strength and not the wrist's target angle sets the flick: a full-strength wrist reaches
-a near target in one step too (the servo is deadbeat), but then the speed is e / dt, about
-40 m/s of face speed per unit of action; through the strength it is about 4 m/s per unit, a
-precision a learned policy imitating this one can reach.
+The shuttle is met in the coasting decision's middle (``MEET_STEP``, its third physics step),
+which the rulebook measures the racket velocity over. A meeting one or two steps early or late
+(a clone's hips or arm a little off) still hits near the target velocity. The first design,
+a flick of the wrist whose speed doubled from one step to the next, lost the aim whenever the
+meeting moved by one step, which is where a clone of it failed (docs/humanlike.md, Training).
 
-The pose: upper arm swung 30 deg forward (``upper_arm_y``), raised or lowered (``upper_arm_x``)
-to put the face at the planned height, the wrist flexed to level the face; the trunk (spine and
-chest together, about the vertical) turned to keep the hips inside their range for shuttles
-deep or wide. Everything is read from the observation, so one controller drives any batch.
+In the two swinging decisions the strength is recomputed from the arm's observed angle and rate
+(``arm_state``) rather than taken from the plan: a swing started late, early or too fast is
+steered back to the target's vertical speed, so DAgger's labels teach a clone to recover.
+Everything is read from the observation, so one controller drives any batch.
 """
 
 from __future__ import annotations
@@ -41,82 +40,99 @@ import numpy as np
 
 from rallysim.assets import asset_path
 from rallysim.core.game import PHYSICS_DT, PHYSICS_STEPS_PER_DECISION
-from rallysim.core.humanlike import JOINTS, HumanLikeBodies, humanlike_geometry
+from rallysim.core.humanlike import GROUPS, JOINTS, HumanLikeBodies, humanlike_geometry
 from rallysim.core.shuttle import ShuttleState, make_shuttle_model
-from rallysim.envs.humanlike_obs import HIPS, SHUTTLE
+from rallysim.envs.humanlike_obs import BODY_OBS_SIZE, BODY_RATE_SCALE, HIPS, SHUTTLE
 from rallysim.envs.simple_obs import POSITION_CENTRE, POSITION_SCALE, SHUTTLE_SPEED_SCALE
 
 TARGET = slice(82, 85)  # the task's target racket velocity / 5 m/s
 TARGET_SCALE = 5.0
 FORWARD_SWING = np.radians(30.0)  # upper_arm_y of every pose
-RAISE_RANGE = np.radians(np.arange(-60.0, 60.01, 1.0))  # upper_arm_x grid of the pose table
+MEET_STEP = 3  # the coasting decision's physics step (1-based) the shuttle is met in
+RAISE_HIGHEST = np.radians(20.0)  # the highest meeting: face 0.83 m above the hips centre
+RAISE_LOWEST = np.radians(-45.0)
 TRUNK_MAX = np.radians(30.0)  # spine + chest turn, +-15 deg each
 HALF_DEPTH = 0.125  # the hit volume's half thickness along the face normal (0.025 + 0.1 m)
-FACE_TOP = 0.80  # m above the hips centre: the highest planned face (1.7 m)
+AIM_WEIGHT = 4.0  # a clone's loss weight of the aiming actions (``imitation_weights``)
 HIPS_MARGIN = 0.08  # m kept from the hips' range edges (a clamp would change the velocity)
 J = {name: i for i, name in enumerate(JOINTS)}
-HAND_TARGET = 2 + J["hand_x"]  # action indices
-HAND_STRENGTH = 2 + len(JOINTS) + 4
+RAISE_TARGET = 2 + J["upper_arm_x"]  # action indices
+ARM_STRENGTH = 2 + len(JOINTS) + GROUPS.index("upper_arm")
+CHEST, UPPER_ARM = 1, 2  # observed bodies
+SPD = PHYSICS_STEPS_PER_DECISION
 
 
-class PoseTable:
-    """The levelled contact poses over the raise angle (trunk straight): for each, the wrist
-    angle that turns the face normal most nearly up, the face centre relative to the hips
-    centre, the normal, and the wrist's axis and lever (face centre minus wrist anchor)."""
+class ArmSwing:
+    """The straight arm (swung ``FORWARD_SWING`` forward, wrist straight, face level at raise 0)
+    turning about the shoulder's raise axis, in the player's frame with the trunk straight:
+    the face centre, its normal and the swing's angles, all from one MuJoCo evaluation."""
 
     def __init__(self) -> None:
         m = mujoco.MjModel.from_xml_path(str(asset_path("humanlike_player.xml")))
         d = mujoco.MjData(m)
-        site = 0
-        hand = m.joint("hand_x").id
-        flex = np.radians(np.arange(-90.0, 90.01, 0.25))
-        rows = []
-        for raise_ in RAISE_RANGE:
-            q = np.zeros(m.nq)
-            q[J["upper_arm_x"]], q[J["upper_arm_y"]] = raise_, FORWARD_SWING
-            best = (-2.0, 0.0)
-            for psi in flex:
-                q[J["hand_x"]] = psi
-                d.qpos[:] = q
-                mujoco.mj_kinematics(m, d)
-                nz = d.site_xmat[site].reshape(3, 3)[2, 1]
-                if nz > best[0]:
-                    best = (nz, psi)
-            q[J["hand_x"]] = best[1]
-            d.qpos[:] = q
-            d.qvel[:] = 0.0
-            mujoco.mj_forward(m, d)
-            hips = d.mocap_pos[0]
-            face = d.site_xpos[site] - hips
-            normal = d.site_xmat[site].reshape(3, 3)[:, 1]
-            axis = d.xaxis[hand]
-            lever = d.site_xpos[site] - d.xanchor[hand]
-            full = np.zeros((m.nv, m.nv))
-            mujoco.mj_fullM(m, d, full)
-            dof = m.jnt_dofadr[hand]
-            rows.append(np.concatenate([[best[1]], face, normal, axis, lever,
-                                        [full[dof, dof], d.qfrc_bias[dof]]]))
-        t = np.array(rows)
-        self.raise_ = RAISE_RANGE
-        self.wrist, self.face, self.normal = t[:, 0], t[:, 1:4], t[:, 4:7]
-        self.axis, self.lever = t[:, 7:10], t[:, 10:13]
-        self.inertia, self.gravity = t[:, 13], t[:, 14]  # the wrist's, at rest in the pose
+        d.qpos[J["upper_arm_y"]] = FORWARD_SWING
+        mujoco.mj_forward(m, d)
+        full = np.zeros((m.nv, m.nv))
+        mujoco.mj_fullM(m, d, full)
+        raise_ = J["upper_arm_x"]
+        joint = m.joint("upper_arm_x").id
+        anchor = d.xanchor[joint] - d.mocap_pos[0]
+        lever = d.site_xpos[0] - d.xanchor[joint]
+        # the raise turns about -x: the lever must lie in the level plane, out to the right
+        if not (np.allclose(d.xaxis[joint], [-1.0, 0.0, 0.0]) and abs(lever[2]) < 1e-9
+                and lever[1] < 0.0):
+            raise RuntimeError("unexpected arm geometry in humanlike_player.xml")
+        self.inertia = float(full[raise_, raise_])
+        self.gravity = float(d.qfrc_bias[raise_])  # the holding torque at raise 0 (level arm)
+        self.radius = float(-lever[1])  # the face centre's distance from the raise axis
+        self._x = float(anchor[0] + lever[0])
+        self._y, self._z = float(anchor[1]), float(anchor[2])
 
-    def raise_for_height(self, z: np.ndarray) -> np.ndarray:
-        """Raise angles putting the face centre ``z`` m above the hips (clipped to the table)."""
-        return np.interp(z, self.face[:, 2], self.raise_)
+    def face(self, theta: np.ndarray) -> np.ndarray:
+        """Face centres (..., 3) relative to the hips centre at raise angles ``theta``."""
+        return np.stack([np.full_like(theta, self._x),
+                         self._y - self.radius * np.cos(theta),
+                         self._z + self.radius * np.sin(theta)], axis=-1)
 
-    def at(self, raise_: np.ndarray) -> dict[str, np.ndarray]:
-        """The table's rows interpolated at raise angles (n,)."""
-        def col(a: np.ndarray) -> np.ndarray:
-            return np.stack([np.interp(raise_, self.raise_, a[:, i]) for i in range(3)], axis=1)
+    def top(self, theta: np.ndarray) -> np.ndarray:
+        """Centres (..., 3) of the hit volume's top (the face centre plus the half depth along
+        its normal, which tilts with the raise)."""
+        normal = np.stack([np.zeros_like(theta), np.sin(theta), np.cos(theta)], axis=-1)
+        return self.face(theta) + HALF_DEPTH * normal
 
-        def one(a: np.ndarray) -> np.ndarray:
-            return np.interp(raise_, self.raise_, a)
+    def angles(self, theta: np.ndarray, rate: np.ndarray, first: np.ndarray, then: np.ndarray,
+               steps: int) -> np.ndarray:
+        """Raise angles (n, steps + 1) from angle ``theta`` and rate ``rate`` (n,) with the
+        strength ``first`` for a decision's physics steps and ``then`` after them."""
+        out = np.empty((len(theta), steps + 1))
+        out[:, 0] = theta
+        w = rate.copy()
+        for i in range(steps):
+            strength = first if i < SPD else then
+            w = w + PHYSICS_DT * (strength - self.gravity * np.cos(out[:, i])) / self.inertia
+            out[:, i + 1] = out[:, i] + PHYSICS_DT * w
+        return out
 
-        return {"wrist": one(self.wrist), "face": col(self.face), "normal": col(self.normal),
-                "axis": col(self.axis), "lever": col(self.lever),
-                "inertia": one(self.inertia), "gravity": one(self.gravity)}
+    def lift(self, theta: np.ndarray, step: int) -> np.ndarray:
+        """The face's vertical velocity over physics step ``step`` (1-based) of ``angles``."""
+        z = self.radius * np.sin(theta[:, step - 1:step + 1])
+        return (z[:, 1] - z[:, 0]) / PHYSICS_DT
+
+
+def arm_state(obs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The raise angle and rate (each (n,)) read from observations of the swing's pose family
+    (trunk turned about the vertical, arm swung forward, twist 0): the angle from the upper
+    arm's direction beside the chest's lateral axis, the rate from its angular velocity about
+    the raise axis."""
+    o = np.asarray(obs, dtype=np.float64)
+    chest = o[:, CHEST * BODY_OBS_SIZE + 9:CHEST * BODY_OBS_SIZE + 13]
+    yaw = 2.0 * np.arctan2(chest[:, 3], chest[:, 0])  # the chest turns about z only
+    w, x, y, z = o[:, UPPER_ARM * BODY_OBS_SIZE + 9:UPPER_ARM * BODY_OBS_SIZE + 13].T
+    along = np.stack([2 * (x * z + w * y), 2 * (y * z - w * x), 1 - 2 * (x * x + y * y)], 1)
+    out = np.sin(yaw) * along[:, 0] - np.cos(yaw) * along[:, 1]  # toward the right hand
+    spin = o[:, UPPER_ARM * BODY_OBS_SIZE + 3:UPPER_ARM * BODY_OBS_SIZE + 6] * BODY_RATE_SCALE
+    rate = -(np.cos(yaw) * spin[:, 0] + np.sin(yaw) * spin[:, 1])
+    return np.arctan2(along[:, 2], out), rate
 
 
 def _turn(v: np.ndarray, yaw: np.ndarray) -> np.ndarray:
@@ -125,51 +141,24 @@ def _turn(v: np.ndarray, yaw: np.ndarray) -> np.ndarray:
     return np.stack([c * v[:, 0] - s * v[:, 1], s * v[:, 0] + c * v[:, 1], v[:, 2]], axis=1)
 
 
-def chord_terms(axis: np.ndarray, lever: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Rodrigues' form of a point at ``lever`` turned by e about ``axis``: its displacement is
-    across * sin(e) + inward * (1 - cos(e)); returns (across, inward), each (n, 3)."""
-    across = np.cross(axis, lever)
-    inward = axis * np.einsum("ij,ij->i", axis, lever)[:, None] - lever
-    return across, inward
-
-
-def wrist_flick(terms: tuple[np.ndarray, np.ndarray], rise: np.ndarray, before: float = 0.0,
-                after: float = 1.0) -> np.ndarray:
-    """Wrist angles e (n,) such that turning from ``before`` e to ``after`` e moves the face
-    centre up by ``rise`` m (``terms``: ``chord_terms`` of the wrist's axis and the face's
-    lever), solved by Newton's method."""
-    a, b = terms[0][:, 2], terms[1][:, 2]
-    e = rise / np.where(np.abs(a) > 1e-6, a, 1e-6) / (after - before)
-    for _ in range(8):
-        f = a * (np.sin(after * e) - np.sin(before * e)) \
-            + b * (np.cos(before * e) - np.cos(after * e)) - rise
-        df = a * (after * np.cos(after * e) - before * np.cos(before * e)) \
-            + b * (after * np.sin(after * e) - before * np.sin(before * e))
-        e = e - f / df
-    return e
-
-
-def chord(terms: tuple[np.ndarray, np.ndarray], e: np.ndarray) -> np.ndarray:
-    """The face centre's displacement (n, 3) when the wrist turns by ``e``."""
-    across, inward = terms
-    return across * np.sin(e)[:, None] + inward * (1.0 - np.cos(e))[:, None]
-
-
 class AimedSwing:
     """``controller(observations (N, 85)) -> actions (N, 15)`` for ``HumanLikeReturn-v0``:
     hits the shuttle with the racket moving at the observed target velocity. See the module
     docstring for how."""
 
     horizon_steps = 200  # physics steps of shuttle prediction (4 s)
-    hit_step = 1  # the decision's physics step (1-based) the shuttle is met in (see above)
 
     def __init__(self, shuttle: str = "paper") -> None:
         self.flight = make_shuttle_model(shuttle, PHYSICS_DT)
-        self.table = PoseTable()
+        self.arm = ArmSwing()
         geo = humanlike_geometry()
         self._lo, self._hi = geo["joint_lo"], geo["joint_hi"]
+        self._arm_max = float(geo["group_max_torque"][GROUPS.index("upper_arm")])
         self._yaw = np.linspace(-TRUNK_MAX, TRUNK_MAX, 61)
-        self._hand_max = float(geo["group_max_torque"][-1])
+        self._raise = np.linspace(-np.pi / 2, np.pi / 2, 721)  # top() is monotone over it
+        self._top_z = self.arm.top(self._raise)[:, 2]
+        self._aim_weights = np.ones(2 + len(JOINTS) + len(GROUPS))
+        self._aim_weights[[0, 1, RAISE_TARGET, ARM_STRENGTH]] = AIM_WEIGHT
 
     def predict(self, pos: np.ndarray, vel: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The shuttles' positions and velocities (N, H + 1, 3) at every physics step."""
@@ -182,104 +171,145 @@ class AimedSwing:
             p[:, k], v[:, k] = s.pos, s.vel
         return p, v
 
+    def swing(self, meet: np.ndarray, lift: np.ndarray) -> tuple[np.ndarray, ...]:
+        """The swing from rest that, half into the coasting decision's ``MEET_STEP``, puts the
+        hit volume's top at raise angle ``meet`` and moves the face up at ``lift`` m/s: the
+        held angle theta0, the strengths of accelerating and coasting, and the angles (n, 11).
+        Newton's method on (theta0, L_acc); coasting balances gravity at ``meet``."""
+        arm, step = self.arm, SPD + MEET_STEP
+        coast = arm.gravity * np.cos(meet)
+        rate = lift / (arm.radius * np.cos(meet))
+        x = np.stack([meet - rate * PHYSICS_DT * (SPD + MEET_STEP + 0.5),
+                      coast + arm.inertia * rate / (SPD * PHYSICS_DT)], axis=1)
+        goal = np.stack([arm.top(meet)[:, 2], lift], axis=1)
+        rest = np.zeros(len(meet))
+
+        def outcome(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            th = arm.angles(x[:, 0], rest, x[:, 1], coast, 2 * SPD)
+            height = 0.5 * (arm.top(th[:, step - 1])[:, 2] + arm.top(th[:, step])[:, 2])
+            return np.stack([height, arm.lift(th, step)], axis=1) - goal, th
+
+        for _ in range(6):
+            r, _ = outcome(x)
+            jac = np.stack([(outcome(x + h)[0] - r) / h[0, i]
+                            for i, h in enumerate((np.array([[1e-6, 0.0]]),
+                                                   np.array([[0.0, 1e-4]])))], axis=2)
+            x = x - np.linalg.solve(jac, r[..., None])[..., 0]
+        return x[:, 0], x[:, 1], coast, outcome(x)[1]
+
+    def steer(self, obs: np.ndarray, lift: np.ndarray, coast: np.ndarray,
+              accelerating: np.ndarray) -> np.ndarray:
+        """The upper arm's strength now, from the arm's observed state, that gives the face
+        the vertical velocity ``lift`` in the meeting step: accelerating (then coasting with
+        ``coast``) or coasting; Newton's method."""
+        theta, rate = arm_state(obs)
+        arm = self.arm
+        step = np.where(accelerating, SPD + MEET_STEP, MEET_STEP)
+
+        def lift_at(strength: np.ndarray) -> np.ndarray:
+            then = np.where(accelerating, coast, strength)
+            th = arm.angles(theta, rate, strength, then, SPD + MEET_STEP)
+            rows = np.arange(len(th))
+            z = arm.radius * np.sin(th)
+            return (z[rows, step] - z[rows, step - 1]) / PHYSICS_DT
+
+        strength = coast + arm.inertia * np.maximum(lift / arm.radius - rate, 0.0) \
+            / (SPD * PHYSICS_DT) * accelerating
+        for _ in range(4):
+            f = lift_at(strength) - lift
+            strength = strength - f * 1e-3 / (lift_at(strength + 1e-3) - lift_at(strength))
+        return np.clip(strength, 0.0, self._arm_max)
+
     def plan(self, obs: np.ndarray) -> dict[str, np.ndarray]:
-        """The meeting each observation leads to: in how many decisions (0: this one), the
-        pose (raise, wrist, trunk yaw), where the hips must be then and how they move in it,
-        and the wrist's flick."""
+        """The meeting each observation leads to: whether there is one (a shuttle coming in),
+        the coasting decision (0: this one), the swing, the trunk's turn, where the hips must be
+        at that decision's start and how they move through it."""
         n = len(obs)
         pos = obs[:, SHUTTLE][:, :3] * POSITION_SCALE + POSITION_CENTRE
         vel = obs[:, SHUTTLE][:, 3:] * SHUTTLE_SPEED_SCALE
         goal = obs[:, TARGET] * TARGET_SCALE
         p, v = self.predict(pos, vel)
-        spd = PHYSICS_STEPS_PER_DECISION
-        starts = np.arange(0, self.horizon_steps, spd)  # physics steps of decision starts
-        j = self.hit_step
-        # The wrist accelerates evenly from rest: its angle after step i is i (i + 1) / 2 times
-        # step 1's turn e_1, so step j turns it from `before` to `after` e_1.
-        before, after = j * (j - 1) / 2, j * (j + 1) / 2
-        mid = 0.5 * (p[:, starts + j - 1] + p[:, starts + j])  # the shuttle half into step j
-        # The face centre wanted at each decision start: the shuttle on the hit volume's top
-        # half into step j, the face having risen by then (in small-angle chords: step j rises
-        # the target's vertical travel, so half into it the face has risen (before + after) / 2
-        # over (after - before) of that travel, j / 2).
-        risen = 0.5 * (before + after) / (after - before)
-        face_z = mid[..., 2] - HALF_DEPTH - risen * PHYSICS_DT * goal[:, None, 2]
-        falling = v[:, starts, 2] < 0.0
-        z_need = face_z - HumanLikeBodies.hips_height
-        ok = falling & (z_need <= FACE_TOP)
+        starts = np.arange(0, self.horizon_steps - SPD, SPD)  # physics steps of decision starts
+        mid = 0.5 * (p[:, starts + MEET_STEP - 1] + p[:, starts + MEET_STEP])
+        meet = np.interp(mid[..., 2] - HumanLikeBodies.hips_height, self._top_z, self._raise)
+        ok = ((v[:, starts + MEET_STEP, 2] < 0.0) & (vel[:, None, 0] < 0.0)
+              & (meet <= RAISE_HIGHEST) & (meet >= RAISE_LOWEST))
         found = ok.any(axis=1)
         k = np.where(found, ok.argmax(axis=1), 0)
         rows = np.arange(n)
-        z_rel = z_need[rows, k]
-        raise_ = self.table.raise_for_height(z_rel)
-        pose = self.table.at(raise_)
-        # one correction for the normal's tilt in the volume's depth
-        z_rel = z_rel + HALF_DEPTH * (1.0 - pose["normal"][:, 2])
-        raise_ = self.table.raise_for_height(z_rel)
-        pose = self.table.at(raise_)
+        meet, at = np.clip(meet[rows, k], RAISE_LOWEST, RAISE_HIGHEST), mid[rows, k]
+        held, accelerate, coast, th = self.swing(meet, goal[:, 2])
         # the trunk's turn: as far forward as the hips' back edge allows
-        face_mid = mid[rows, k]
+        meeting = th[:, SPD + MEET_STEP - 1:SPD + MEET_STEP + 1]  # the step's two ends
+        top = 0.5 * (self.arm.top(meeting[:, 0]) + self.arm.top(meeting[:, 1]))
         hips_lo, hips_hi = HumanLikeBodies.hips_range[:, 0], HumanLikeBodies.hips_range[:, 1]
-        reach_x = np.cos(self._yaw)[None] * pose["face"][:, :1] \
-            - np.sin(self._yaw)[None] * pose["face"][:, 1:2]  # (n, yaws), increasing
-        room = face_mid[:, :1] - (hips_lo[0] + HIPS_MARGIN)
-        yaw = np.array([np.interp(r, x, self._yaw) for r, x in zip(room[:, 0], reach_x,
-                                                                   strict=True)])
-        face = _turn(pose["face"], yaw)
-        terms = chord_terms(_turn(pose["axis"], yaw), _turn(pose["lever"], yaw))
-        flick = wrist_flick(terms, goal[:, 2] * PHYSICS_DT, before, after)
-        start = chord(terms, before * flick)  # the face's travel before step j
-        move = chord(terms, after * flick) - start  # ... and in it
-        hips_vel = goal[:, :2] - move[:, :2] / PHYSICS_DT
-        # hips at the decision start: the face's horizontal position half into step j is mid
-        hips = face_mid[:, :2] - (j - 0.5) * PHYSICS_DT * hips_vel \
-            - (start[:, :2] + 0.5 * move[:, :2]) - face[:, :2]
+        reach_x = np.cos(self._yaw)[None] * top[:, :1] - np.sin(self._yaw)[None] * top[:, 1:2]
+        room = at[:, 0] - (hips_lo[0] + HIPS_MARGIN)
+        yaw = np.array([np.interp(r, x, self._yaw) for r, x in zip(room, reach_x, strict=True)])
+        # the hips supply the horizontal velocity the arm does not
+        arm_vel = _turn((self.arm.face(meeting[:, 1]) - self.arm.face(meeting[:, 0]))
+                        / PHYSICS_DT, yaw)
+        hips_vel = goal[:, :2] - arm_vel[:, :2]
+        hips = at[:, :2] - _turn(top, yaw)[:, :2] - (MEET_STEP - 0.5) * PHYSICS_DT * hips_vel
         hips = np.clip(hips, hips_lo + HIPS_MARGIN, hips_hi - HIPS_MARGIN)
-        # the wrist torque turning it by the flick in one step from rest: M e / dt^2 + bias
-        torque = pose["inertia"] * flick / PHYSICS_DT ** 2 + pose["gravity"]
-        return {"found": found, "decisions": k, "raise": raise_, "wrist": pose["wrist"],
-                "yaw": yaw, "flick": flick, "torque": torque, "hips": hips,
+        return {"found": found, "decisions": k, "meet": meet, "held": held,
+                "accelerate": accelerate, "coast": coast, "yaw": yaw, "hips": hips,
                 "hips_vel": hips_vel}
 
     def imitation_weights(self) -> np.ndarray:
-        """Per-environment weights of the last call's actions for a clone's loss: 10 in the
-        decision of the hit and the one before (the ones that decide it), 1 elsewhere."""
+        """Weights (N, 15) of the last call's actions for a clone's loss: 10 in the swing's two
+        decisions and the one before (the ones that decide the hit), 1 elsewhere; times
+        ``AIM_WEIGHT`` for the actions that aim (hips movement, the raise's target, the upper
+        arm's strength), which the rest hold constant."""
         plan = self.last_plan
-        return 1.0 + 9.0 * (plan["found"] & (plan["decisions"] <= 1))
+        swing = 1.0 + 9.0 * (plan["found"] & (plan["decisions"] <= 2))
+        return swing[:, None] * self._aim_weights
 
     def __call__(self, observations: np.ndarray) -> np.ndarray:
         obs = np.asarray(observations, dtype=np.float64)
         n = len(obs)
         plan = self.last_plan = self.plan(obs)
+        found, k = plan["found"], plan["decisions"]
         hips = (obs[:, HIPS] * POSITION_SCALE + POSITION_CENTRE)[:, :2]
-        now = plan["found"] & (plan["decisions"] == 0)
         # The hips chase a waypoint that reaches the meeting point moving at the hit's hips
-        # velocity: once caught, they move at exactly that velocity, in the decisions before
-        # the hit as in the hit's own, so nothing has to switch at the hit.
-        decision = PHYSICS_DT * PHYSICS_STEPS_PER_DECISION
-        lead = plan["decisions"][:, None] * decision
+        # velocity: once caught, they move at exactly that velocity before the hit as in it.
+        decision = PHYSICS_DT * SPD
         lo, hi = HumanLikeBodies.hips_range[:, 0], HumanLikeBodies.hips_range[:, 1]
-        waypoint = plan["hips"] - plan["hips_vel"] * lead
+        waypoint = plan["hips"] - plan["hips_vel"] * k[:, None] * decision
         step = HumanLikeBodies.max_hips_speed * decision
         move = (waypoint + plan["hips_vel"] * decision - hips) / step
-        # Where that waypoint lies outside the hips' range (meetings at the back edge), go
-        # straight to the meeting point and move at the hit's velocity in the hit's decision.
-        outside = ((waypoint < lo) | (waypoint > hi)).any(axis=1)
-        direct = np.where(now[:, None], plan["hips_vel"] * decision, plan["hips"] - hips) / step
-        move = np.where(outside[:, None], direct, move)
+        # Where the waypoint two decisions before the hit lies outside the hips' range
+        # (meetings at the back edge), go straight to the meeting point and wait there.
+        early = plan["hips"] - plan["hips_vel"] * np.maximum(k, 2)[:, None] * decision
+        outside = ((early < lo) | (early > hi)).any(axis=1)
+        move = np.where(outside[:, None], (plan["hips"] - hips) / step, move)
+        # In the swing's decisions the hips move at the hit's velocity whatever their place:
+        # the face's size absorbs a few centimetres, the aim would not (and a meeting come
+        # early, in the accelerating decision, is still aimed where they have caught up).
+        paced = found & ((k == 0) | ((k == 1) & ~outside))
+        move = np.where(paced[:, None], plan["hips_vel"] / HumanLikeBodies.max_hips_speed,
+                        move)
         angles = np.zeros((n, len(JOINTS)))
         angles[:, J["spine_z"]] = angles[:, J["chest_z"]] = 0.5 * plan["yaw"]
-        angles[:, J["upper_arm_x"]] = plan["raise"]
+        angles[:, J["upper_arm_x"]] = plan["held"]
         angles[:, J["upper_arm_y"]] = FORWARD_SWING
-        angles[:, J["hand_x"]] = plan["wrist"]
-        actions = np.empty((n, 2 + len(JOINTS) + 5))
+        actions = np.empty((n, 2 + len(JOINTS) + len(GROUPS)))
         actions[:, 0:2] = np.clip(move, -1.0, 1.0)
         actions[:, 2:2 + len(JOINTS)] = 2.0 * (angles - self._lo) / (self._hi - self._lo) - 1.0
-        actions[:, 2 + len(JOINTS):] = 1.0  # full strength: every joint is deadbeat
-        # The flick: the wrist's target jumps to its far end; its strength is the torque the
-        # flick needs, held from the start (it also holds the level pose against gravity), so
-        # only the target has to switch at the hit, and any target 0.2 rad or more away works.
-        flick_to = np.sign(plan["torque"])
-        actions[:, HAND_TARGET] = np.where(now, flick_to, actions[:, HAND_TARGET])
-        actions[:, HAND_STRENGTH] = 2.0 * np.abs(plan["torque"]) / self._hand_max - 1.0
+        actions[:, 2 + len(JOINTS):] = 1.0  # full strength: every other joint is deadbeat
+        # The held pose waits with the strength that will accelerate the arm, so that only the
+        # raise's target switches when the swing starts and only the strength when it coasts.
+        strength = plan["accelerate"].copy()
+        swinging = found & (k <= 1)
+        if swinging.any():
+            strength[swinging] = self.steer(obs[swinging], obs[swinging, TARGET][:, 2]
+                                            * TARGET_SCALE, plan["coast"][swinging],
+                                            k[swinging] == 1)
+        actions[:, RAISE_TARGET] = np.where(swinging, 1.0, actions[:, RAISE_TARGET])
+        actions[:, ARM_STRENGTH] = 2.0 * strength / self._arm_max - 1.0
+        # No shuttle coming in (it was hit, or it will not be reachable): stand still, arm level.
+        actions[~found, 0:2] = 0.0
+        actions[~found, RAISE_TARGET] = 2.0 * (0.0 - self._lo[J["upper_arm_x"]]) \
+            / (self._hi[J["upper_arm_x"]] - self._lo[J["upper_arm_x"]]) - 1.0
+        actions[~found, ARM_STRENGTH] = 1.0
         return actions

@@ -187,13 +187,26 @@ def warm_start(model: Any, config: TrainConfig, progress: bool) -> dict[str, Any
     if progress:
         print(f"warm start: cloning {name} over {config.warm_start_decisions:,} decisions "
               f"(+{config.warm_start_dagger} DAgger rounds) ...", file=sys.stderr, flush=True)
+    done = []
+
+    def evaluate(act: Any) -> dict[str, Any]:
+        # the clone's learning curve over its DAgger rounds, with the stage's own numbers
+        result = stages.evaluate(config, act)
+        if progress:
+            stage = f"DAgger round {len(done)}" if done else "clone"
+            print(f"[warm start] {stage}: {stages.headline(config, result)}", file=sys.stderr,
+                  flush=True)
+        done.append(result)
+        return result
+
     result = behaviour_clone(model, teacher, config.warm_start_decisions,
                              epochs=config.warm_start_epochs,
                              log_std=config.warm_start_log_std, shuttle=config.shuttle,
                              seed=config.seed + 1_000_003, player=config.env,
                              dagger_rounds=config.warm_start_dagger,
                              batch_size=config.warm_start_batch_size,
-                             lr_decay=config.warm_start_lr_decay)
+                             lr_decay=config.warm_start_lr_decay,
+                             evaluate=evaluate if config.warm_start_dagger else None)
     return {**result, "teacher": name, "wall_s": round(time.perf_counter() - t, 2)}
 
 

@@ -37,21 +37,23 @@ def teacher_dataset(teacher: Act, n_envs: int, decisions: int, gamma: float,
                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """(obs, teacher's actions, discounted returns, sample weights) of complete episodes
     played by ``actor`` (default: the teacher itself) in the ``player``'s low-level task. A
-    teacher with ``imitation_weights()`` weighs its last call's actions; else all weigh 1."""
+    teacher with ``imitation_weights()`` weighs its last call's actions (per environment, or
+    per environment and action); else all weigh 1."""
     env = _task_env(player, n_envs, shuttle)
     obs, _ = env.reset(seed=seed)
     steps = max(1, decisions // n_envs)
     all_obs = np.empty((steps, n_envs, obs.shape[1]), np.float32)
     all_act = np.empty((steps, n_envs, env.single_action_space.shape[0]), np.float32)
     rewards = np.empty((steps, n_envs))
-    weights = np.ones((steps, n_envs), np.float32)
+    weights = np.ones((steps, n_envs, all_act.shape[2]), np.float32)
     dones = np.empty((steps, n_envs), bool)
     weigh = getattr(teacher, "imitation_weights", None)
     for t in range(steps):
         act = np.asarray(teacher(obs), np.float32)
         all_obs[t], all_act[t] = obs, act
-        if weigh is not None:
-            weights[t] = weigh()
+        if weigh is not None:  # per environment (n,) or per action too (n, actions)
+            w = np.asarray(weigh(), np.float32)
+            weights[t] = w[:, None] if w.ndim == 1 else w
         if actor is not None:
             act = np.asarray(actor(obs), np.float32)
         obs, r, term, trunc, _ = env.step(act)
@@ -70,26 +72,41 @@ def teacher_dataset(teacher: Act, n_envs: int, decisions: int, gamma: float,
 def behaviour_clone(model: PPO, teacher: Act, decisions: int, epochs: int = 30,
                     batch_size: int = 4096, lr: float = 1e-3, log_std: float = -1.5,
                     shuttle: str = "paper", seed: int = 0, player: str = "simple",
-                    dagger_rounds: int = 0, lr_decay: bool = False) -> dict[str, float]:
+                    dagger_rounds: int = 0, lr_decay: bool = False,
+                    evaluate: Callable[[Act], dict[str, Any]] | None = None
+                    ) -> dict[str, Any]:
     """Fit ``model``'s actor mean and critic to ``teacher``; return the final losses.
-    ``lr_decay``: a cosine decay of the learning rate to 5 % over each fit's epochs."""
+    ``lr_decay``: a cosine decay of the learning rate to 5 % over each fit's epochs.
+    ``evaluate``: called with the deterministic clone after the first fit and after every
+    DAgger round; its results are returned under ``rounds`` with the decisions labelled so
+    far (the clone's learning curve)."""
     data = [teacher_dataset(teacher, 256, decisions, model.gamma, shuttle, seed, player)]
     policy = model.policy
     optimiser = torch.optim.Adam(policy.parameters(), lr=lr)
     gen = torch.Generator().manual_seed(seed)
-    losses = _fit(policy, optimiser, gen, data, epochs, batch_size, lr, lr_decay)
-    for k in range(dagger_rounds):
-        def student(obs: np.ndarray) -> np.ndarray:
-            with torch.no_grad():
-                return model.policy.predict(obs, deterministic=True)[0]
 
-        data.append(teacher_dataset(teacher, 256, max(256, decisions // 4), model.gamma,
-                                    shuttle, seed + 7919 * (k + 1), player, actor=student))
-        losses = _fit(policy, optimiser, gen, data, max(1, epochs // 2), batch_size, lr,
-                      lr_decay)
+    def student(obs: np.ndarray) -> np.ndarray:
+        with torch.no_grad():
+            return model.policy.predict(obs, deterministic=True)[0]
+
+    rounds: list[dict[str, Any]] = []
+    labelled = 0
+    for k in range(dagger_rounds + 1):
+        if k > 0:
+            data.append(teacher_dataset(teacher, 256, max(256, decisions // 4), model.gamma,
+                                        shuttle, seed + 7919 * k, player, actor=student))
+        labelled += (decisions if k == 0 else max(256, decisions // 4)) // 256 * 256
+        losses = _fit(policy, optimiser, gen, data, epochs if k == 0 else max(1, epochs // 2),
+                      batch_size, lr, lr_decay)
+        if evaluate is not None:
+            rounds.append({"round": k, "labelled_decisions": labelled, **losses,
+                           **evaluate(student)})
     with torch.no_grad():
         policy.log_std.fill_(log_std)
-    return {"samples": float(sum(len(d[0]) for d in data)), **losses}
+    out: dict[str, Any] = {"samples": float(sum(len(d[0]) for d in data)), **losses}
+    if evaluate is not None:
+        out["rounds"] = rounds
+    return out
 
 
 def _fit(policy: Any, optimiser: Any, gen: Any, data: list[tuple[np.ndarray, ...]],
@@ -97,7 +114,7 @@ def _fit(policy: Any, optimiser: Any, gen: Any, data: list[tuple[np.ndarray, ...
     o = torch.as_tensor(np.concatenate([d[0] for d in data]))
     a = torch.as_tensor(np.concatenate([d[1] for d in data]))
     g = torch.as_tensor(np.concatenate([d[2] for d in data]))[:, None]
-    w = torch.as_tensor(np.concatenate([d[3] for d in data]))[:, None]
+    w = torch.as_tensor(np.concatenate([d[3] for d in data]))  # (samples, actions)
     actor_loss = critic_loss = torch.zeros(())
     for epoch in range(epochs):
         if lr_decay:
