@@ -178,18 +178,37 @@ def _reproduce(args: argparse.Namespace) -> int:
     return 0 if results else 1
 
 
+def _rally_line(name: str, s: dict) -> str:
+    return (f"{name:18s} mean rally {s['mean']['value']:6.2f} "
+            f"[{s['mean']['low']:.2f}, {s['mean']['high']:.2f}]  median "
+            f"{s['median']['value']:5.1f}  reaching 50: {s['capped']}/{s['n_rallies']}")
+
+
 def _evaluate(args: argparse.Namespace) -> int:
-    """Evaluate HRL, Random High-level and Monolithic (pretrained or given policies)."""
+    """Evaluate HRL, Random High-level and Monolithic (pretrained or given policies), or a
+    HUMAN-LIKE low level and its 3-D rally."""
     import json
 
-    from rallysim.eval.compare import evaluate_methods
+    if args.env == "humanlike":
+        from rallysim.eval.humanlike_eval import evaluate_humanlike_player
 
-    results = evaluate_methods(args.low, args.high, args.mono, rallies=args.rallies,
-                               seeds=args.seeds, shuttle=args.shuttle)
-    for method, s in results["methods"].items():
-        print(f"{method:18s} mean rally {s['mean']['value']:6.2f} "
-              f"[{s['mean']['low']:.2f}, {s['mean']['high']:.2f}]  median "
-              f"{s['median']['value']:5.1f}  reaching 50: {s['capped']}/{s['n_rallies']}")
+        results = evaluate_humanlike_player(args.low, args.high or "centre", args.episodes,
+                                            args.rallies, args.seeds, args.shuttle)
+        r, t = results["returns"], results["targets"]
+        print(f"low level {args.low}: {r['episodes']} serves, hit rate {r['hit_rate']:.3f} "
+              f"(target >= {t['hit_rate']}), mean angle error {r['mean_angle_error']:.2f} deg "
+              f"(<= {t['mean_angle_error']}), median {r['median_angle_error']:.2f} deg, mean "
+              f"|speed error| {r['mean_abs_speed_error']:.3f} (<= {t['mean_abs_speed_error']})")
+        print(_rally_line(f"rally, {results['policies']['high']} goals", results["rally"])
+              + f"  (target mean >= {t['mean_rally']:g})")
+    else:
+        from rallysim.eval.compare import evaluate_methods
+
+        results = evaluate_methods(args.low, args.high or "pretrained", args.mono,
+                                   rallies=args.rallies, seeds=args.seeds,
+                                   shuttle=args.shuttle)
+        for method, s in results["methods"].items():
+            print(_rally_line(method, s))
     if args.json:
         Path(args.json).parent.mkdir(parents=True, exist_ok=True)
         Path(args.json).write_text(json.dumps(results, indent=1))
@@ -248,11 +267,18 @@ def build_parser() -> argparse.ArgumentParser:
     repro.add_argument("--workers", type=int, default=3, help="seeds trained at once")
     repro.set_defaults(run=_reproduce)
 
-    ev = sub.add_parser("evaluate", help="rally statistics of HRL, Random High-level, Monolithic")
+    ev = sub.add_parser("evaluate", help="rally statistics of HRL, Random High-level, "
+                        "Monolithic; or of a HUMAN-LIKE low level (--env humanlike)")
+    ev.add_argument("--env", choices=("simple", "humanlike"), default="simple",
+                    help="humanlike: the low level's hit rate, angle and speed errors on "
+                         "--episodes serves, and the 3-D rally it plays")
     ev.add_argument("--pretrained", action="store_true",
                     help="the shipped policies (the default for any policy not given)")
-    ev.add_argument("--low", default="pretrained", help="low level: path prefix or pretrained")
-    ev.add_argument("--high", default="pretrained", help="high level: path prefix or pretrained")
+    ev.add_argument("--low", default="pretrained",
+                    help="low level: path prefix or pretrained (humanlike: or scripted)")
+    ev.add_argument("--high", help="high level: path prefix or pretrained (the default); "
+                                   "humanlike: centre (the default), random or a path prefix")
+    ev.add_argument("--episodes", type=int, default=500, help="humanlike: serves returned")
     ev.add_argument("--mono", default="pretrained", help="Monolithic: path prefix or pretrained")
     ev.add_argument("--rallies", type=int, default=100, help="rallies per seed and method")
     ev.add_argument("--seeds", type=int, default=3, help="evaluation seeds")

@@ -1,8 +1,10 @@
-"""Evaluation of HUMAN-LIKE low-level policies on ``RallySim/HumanLikeReturn-v0``.
+"""Evaluation of HUMAN-LIKE low-level policies on ``RallySim/HumanLikeReturn-v0``, and of
+the 3-D rally they play.
 
 Each environment plays one episode, seeded ``seed + i``; the racket velocity at the hit is
 compared with the episode's target (SPEC §10): hit rate, angle error in degrees, relative speed
-error. Targets of issue 5: hit rate >= 90 %, mean angle error <= 5 degrees, speed error <= 10 %.
+error. Targets of issue 5: hit rate >= 90 %, mean angle error <= 5 degrees, speed error <= 10 %,
+and a mean rally of at least 10 hits.
 """
 
 from __future__ import annotations
@@ -15,6 +17,8 @@ import numpy as np
 from rallysim.envs.humanlike_return_v0 import HumanLikeReturnVectorEnv
 
 Policy = Callable[[np.ndarray], np.ndarray]  # (N, 85) observations -> (N, 15) actions
+TARGETS = {"hit_rate": 0.9, "mean_angle_error": 5.0, "mean_abs_speed_error": 0.1,
+           "mean_rally": 10.0}
 
 
 def evaluate_humanlike(policy: Policy, episodes: int = 256, seed: int = 12345,
@@ -42,3 +46,39 @@ def evaluate_humanlike(policy: Policy, episodes: int = 256, seed: int = 12345,
         "median_angle_error": float(np.nanmedian(angle)) if hit.any() else float("nan"),
         "mean_abs_speed_error": float(np.nanmean(np.abs(speed))) if hit.any() else float("nan"),
     }
+
+
+def rally_goals(spec: str, seed: int = 0) -> Policy:
+    """The 3-D rally's high level: ``centre`` (every goal (0, 0, 0): 3 m/s at 45 deg straight
+    over the net), ``random`` (goals ~ U[-1, 1]^3) or the path prefix of a trained policy."""
+    if spec == "centre":
+        return lambda obs: np.zeros((len(obs), 3))
+    if spec == "random":
+        rng = np.random.default_rng(seed)
+        return lambda obs: rng.uniform(-1.0, 1.0, (len(obs), 3))
+    from rallysim.policies.mlp import load_policy
+
+    return load_policy(spec)
+
+
+def evaluate_humanlike_player(low: str = "pretrained", high: str = "centre",
+                              episodes: int = 500, rallies: int = 100, seeds: int = 3,
+                              shuttle: str = "paper") -> dict[str, Any]:
+    """A HUMAN-LIKE low level (``scripted``, ``pretrained`` or a path prefix) on ``episodes``
+    serves, and the 3-D rally it plays for ``high``'s goals (``rallies`` x ``seeds``)."""
+    from rallysim.envs.humanlike_rally_task import HumanLikeRallyTask
+    from rallysim.envs.rally_task import RallyConfig
+    from rallysim.eval.rally_eval import rally_lengths_turns
+    from rallysim.eval.stats import summarise_rallies
+    from rallysim.policies.resolve import humanlike_low_level
+
+    if min(episodes, rallies, seeds) < 1:
+        raise ValueError("episodes, rallies and seeds must be >= 1")
+    returns = evaluate_humanlike(humanlike_low_level(low), episodes, shuttle=shuttle)
+    low_level = HumanLikeRallyTask.resolve_low_level(low)
+    groups = [rally_lengths_turns(rally_goals(high, 1000 * s), low_level, rallies, 1000 * s,
+                                  RallyConfig(shuttle=shuttle), rally=HumanLikeRallyTask)
+              for s in range(seeds)]
+    return {"policies": {"low": low, "high": high}, "shuttle": shuttle, "targets": TARGETS,
+            "returns": returns, "rally": summarise_rallies(groups).to_dict(),
+            "lengths": [g.tolist() for g in groups]}
