@@ -192,7 +192,7 @@ def _evaluate(args: argparse.Namespace) -> int:
     if args.env == "humanlike":
         from rallysim.eval.humanlike_eval import evaluate_humanlike_player
 
-        results = evaluate_humanlike_player(args.low, args.high or "centre", args.episodes,
+        results = evaluate_humanlike_player(args.low, args.high or "pretrained", args.episodes,
                                             args.rallies, args.seeds, args.shuttle)
         r, t = results["returns"], results["targets"]
         print(f"low level {args.low}: {r['episodes']} serves, hit rate {r['hit_rate']:.3f} "
@@ -277,7 +277,7 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--low", default="pretrained",
                     help="low level: path prefix or pretrained (humanlike: or scripted)")
     ev.add_argument("--high", help="high level: path prefix or pretrained (the default); "
-                                   "humanlike: centre (the default), random or a path prefix")
+                                   "humanlike: also centre or random")
     ev.add_argument("--episodes", type=int, default=500, help="humanlike: serves returned")
     ev.add_argument("--mono", default="pretrained", help="Monolithic: path prefix or pretrained")
     ev.add_argument("--rallies", type=int, default=100, help="rallies per seed and method")

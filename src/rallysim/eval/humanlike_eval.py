@@ -50,18 +50,19 @@ def evaluate_humanlike(policy: Policy, episodes: int = 256, seed: int = 12345,
 
 def rally_goals(spec: str, seed: int = 0) -> Policy:
     """The 3-D rally's high level: ``centre`` (every goal (0, 0, 0): 3 m/s at 45 deg straight
-    over the net), ``random`` (goals ~ U[-1, 1]^3) or the path prefix of a trained policy."""
+    over the net), ``random`` (goals ~ U[-1, 1]^3), ``pretrained`` (the shipped one, trained
+    over the shipped low level) or the path prefix of a trained policy."""
     if spec == "centre":
         return lambda obs: np.zeros((len(obs), 3))
     if spec == "random":
         rng = np.random.default_rng(seed)
         return lambda obs: rng.uniform(-1.0, 1.0, (len(obs), 3))
-    from rallysim.policies.mlp import load_policy
+    from rallysim.policies.resolve import load_network
 
-    return load_policy(spec)
+    return load_network(spec, "high", "humanlike")
 
 
-def evaluate_humanlike_player(low: str = "pretrained", high: str = "centre",
+def evaluate_humanlike_player(low: str = "pretrained", high: str = "pretrained",
                               episodes: int = 500, rallies: int = 100, seeds: int = 3,
                               shuttle: str = "paper") -> dict[str, Any]:
     """A HUMAN-LIKE low level (``scripted``, ``pretrained`` or a path prefix) on ``episodes``
