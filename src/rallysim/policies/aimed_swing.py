@@ -113,10 +113,13 @@ class ArmSwing:
             out[:, i + 1] = out[:, i] + PHYSICS_DT * w
         return out
 
-    def lift(self, theta: np.ndarray, step: int) -> np.ndarray:
-        """The face's vertical velocity over physics step ``step`` (1-based) of ``angles``."""
-        z = self.radius * np.sin(theta[:, step - 1:step + 1])
-        return (z[:, 1] - z[:, 0]) / PHYSICS_DT
+    def lift(self, theta: np.ndarray, step: int | np.ndarray) -> np.ndarray:
+        """The face's vertical velocity over physics step ``step`` (1-based; one for every row
+        or one per row) of ``angles``."""
+        rows = np.arange(len(theta))
+        end = np.broadcast_to(step, rows.shape)
+        z = self.radius * (np.sin(theta[rows, end]) - np.sin(theta[rows, end - 1]))
+        return z / PHYSICS_DT
 
 
 def arm_state(obs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -203,18 +206,14 @@ class AimedSwing:
         the vertical velocity ``lift`` in the meeting step: accelerating (then coasting with
         ``coast``) or coasting; Newton's method."""
         theta, rate = arm_state(obs)
-        arm = self.arm
         step = np.where(accelerating, SPD + MEET_STEP, MEET_STEP)
 
         def lift_at(strength: np.ndarray) -> np.ndarray:
             then = np.where(accelerating, coast, strength)
-            th = arm.angles(theta, rate, strength, then, SPD + MEET_STEP)
-            rows = np.arange(len(th))
-            z = arm.radius * np.sin(th)
-            return (z[rows, step] - z[rows, step - 1]) / PHYSICS_DT
+            return self.arm.lift(self.arm.angles(theta, rate, strength, then, SPD + MEET_STEP),
+                                 step)
 
-        strength = coast + arm.inertia * np.maximum(lift / arm.radius - rate, 0.0) \
-            / (SPD * PHYSICS_DT) * accelerating
+        strength = coast.copy()  # the lift is nearly linear in the strength
         for _ in range(4):
             f = lift_at(strength) - lift
             strength = strength - f * 1e-3 / (lift_at(strength + 1e-3) - lift_at(strength))
@@ -291,7 +290,9 @@ class AimedSwing:
                         move)
         angles = np.zeros((n, len(JOINTS)))
         angles[:, J["spine_z"]] = angles[:, J["chest_z"]] = 0.5 * plan["yaw"]
-        angles[:, J["upper_arm_x"]] = plan["held"]
+        # with no shuttle coming in (it was hit, or it is out of reach): stand still, arm level
+        angles[:, J["upper_arm_x"]] = np.where(found, plan["held"], 0.0)
+        move[~found] = 0.0
         angles[:, J["upper_arm_y"]] = FORWARD_SWING
         actions = np.empty((n, 2 + len(JOINTS) + len(GROUPS)))
         actions[:, 0:2] = np.clip(move, -1.0, 1.0)
@@ -299,7 +300,7 @@ class AimedSwing:
         actions[:, 2 + len(JOINTS):] = 1.0  # full strength: every other joint is deadbeat
         # The held pose waits with the strength that will accelerate the arm, so that only the
         # raise's target switches when the swing starts and only the strength when it coasts.
-        strength = plan["accelerate"].copy()
+        strength = np.where(found, plan["accelerate"], self._arm_max)
         swinging = found & (k <= 1)
         if swinging.any():
             strength[swinging] = self.steer(obs[swinging], obs[swinging, TARGET][:, 2]
@@ -307,9 +308,4 @@ class AimedSwing:
                                             k[swinging] == 1)
         actions[:, RAISE_TARGET] = np.where(swinging, 1.0, actions[:, RAISE_TARGET])
         actions[:, ARM_STRENGTH] = 2.0 * strength / self._arm_max - 1.0
-        # No shuttle coming in (it was hit, or it will not be reachable): stand still, arm level.
-        actions[~found, 0:2] = 0.0
-        actions[~found, RAISE_TARGET] = 2.0 * (0.0 - self._lo[J["upper_arm_x"]]) \
-            / (self._hi[J["upper_arm_x"]] - self._lo[J["upper_arm_x"]]) - 1.0
-        actions[~found, ARM_STRENGTH] = 1.0
         return actions
