@@ -25,6 +25,7 @@ import argparse
 import json
 import sys
 import time
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -33,7 +34,7 @@ from rallysim.envs.humanlike_rally_task import HumanLikeRallyTask
 from rallysim.envs.humanlike_return_v0 import HumanLikeReturnVectorEnv, ScriptedSwing
 from rallysim.envs.rally_task import RallyConfig
 from rallysim.envs.turn_task import TurnTask
-from rallysim.eval.humanlike_eval import evaluate_humanlike
+from rallysim.eval.humanlike_eval import evaluate_humanlike, rally_goals
 from rallysim.eval.rally_eval import rally_lengths_turns
 from rallysim.eval.stats import summarise_rallies
 from rallysim.policies.aimed_swing import AimedSwing
@@ -58,10 +59,9 @@ def low_levels(args: argparse.Namespace, episodes: int) -> list[dict[str, Any]]:
 
 def high_levels(args: argparse.Namespace, rallies: int, seeds: int) -> list[dict[str, Any]]:
     low = HumanLikeRallyTask.resolve_low_level(args.low or "scripted")
-    named: dict[str, Any] = {"centre": lambda seed: (lambda o: np.zeros((len(o), 3))),
-                             "random": _random_goals}
+    named: dict[str, Any] = {name: partial(rally_goals, name) for name in ("centre", "random")}
     if args.high:
-        net = load_policy(args.high)
+        net = rally_goals(args.high)
         named[f"policy {args.high}"] = lambda seed: net
     rows = []
     for name, make in named.items():
@@ -72,11 +72,6 @@ def high_levels(args: argparse.Namespace, rallies: int, seeds: int) -> list[dict
                      "mean": summary.mean.value, "low": summary.mean.low,
                      "high": summary.mean.high, "capped": summary.capped_fraction.value})
     return rows
-
-
-def _random_goals(seed: int) -> Any:
-    rng = np.random.default_rng(seed)
-    return lambda obs: rng.uniform(-1.0, 1.0, (len(obs), 3))
 
 
 def speed(n: int, seconds: float) -> dict[str, float]:

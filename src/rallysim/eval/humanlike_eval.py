@@ -67,7 +67,7 @@ def evaluate_humanlike_player(low: str = "pretrained", high: str = "pretrained",
                               shuttle: str = "paper") -> dict[str, Any]:
     """A HUMAN-LIKE low level (``scripted``, ``pretrained`` or a path prefix) on ``episodes``
     serves, and the 3-D rally it plays for ``high``'s goals (``rallies`` x ``seeds``)."""
-    from rallysim.envs.humanlike_rally_task import HumanLikeRallyTask
+    from rallysim.envs.humanlike_rally_task import HumanLikeRallyTask, goal_conditioned
     from rallysim.envs.rally_task import RallyConfig
     from rallysim.eval.rally_eval import rally_lengths_turns
     from rallysim.eval.stats import summarise_rallies
@@ -75,8 +75,9 @@ def evaluate_humanlike_player(low: str = "pretrained", high: str = "pretrained",
 
     if min(episodes, rallies, seeds) < 1:
         raise ValueError("episodes, rallies and seeds must be >= 1")
-    returns = evaluate_humanlike(humanlike_low_level(low), episodes, shuttle=shuttle)
-    low_level = HumanLikeRallyTask.resolve_low_level(low)
+    policy = humanlike_low_level(low)  # loaded once: the serves' and the rally's player
+    returns = evaluate_humanlike(policy, episodes, shuttle=shuttle)
+    low_level = goal_conditioned(policy)
     groups = [rally_lengths_turns(rally_goals(high, 1000 * s), low_level, rallies, 1000 * s,
                                   RallyConfig(shuttle=shuttle), rally=HumanLikeRallyTask)
               for s in range(seeds)]

@@ -80,7 +80,6 @@ def behaviour_clone(model: PPO, teacher: Act, decisions: int, epochs: int = 30,
     ``evaluate``: called with the deterministic clone after the first fit and after every
     DAgger round; its results are returned under ``rounds`` with the decisions labelled so
     far (the clone's learning curve)."""
-    data = [teacher_dataset(teacher, 256, decisions, model.gamma, shuttle, seed, player)]
     policy = model.policy
     optimiser = torch.optim.Adam(policy.parameters(), lr=lr)
     gen = torch.Generator().manual_seed(seed)
@@ -89,13 +88,14 @@ def behaviour_clone(model: PPO, teacher: Act, decisions: int, epochs: int = 30,
         with torch.no_grad():
             return model.policy.predict(obs, deterministic=True)[0]
 
+    data: list[tuple[np.ndarray, ...]] = []
     rounds: list[dict[str, Any]] = []
     labelled = 0
-    for k in range(dagger_rounds + 1):
-        if k > 0:
-            data.append(teacher_dataset(teacher, 256, max(256, decisions // 4), model.gamma,
-                                        shuttle, seed + 7919 * k, player, actor=student))
-        labelled += (decisions if k == 0 else max(256, decisions // 4)) // 256 * 256
+    for k in range(dagger_rounds + 1):  # round 0: the teacher plays; then the clone does
+        size = decisions if k == 0 else max(256, decisions // 4)
+        data.append(teacher_dataset(teacher, 256, size, model.gamma, shuttle, seed + 7919 * k,
+                                    player, actor=student if k else None))
+        labelled += max(1, size // 256) * 256  # teacher_dataset plays whole batch steps
         losses = _fit(policy, optimiser, gen, data, epochs if k == 0 else max(1, epochs // 2),
                       batch_size, lr, lr_decay)
         if evaluate is not None:
