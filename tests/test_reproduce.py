@@ -41,6 +41,50 @@ def test_reproduce_writes_the_report_json_and_plots(smoke_run):
     assert again["wall_s"]["training"] < 5
 
 
+def _weight_hashes(out) -> dict[str, str]:
+    from rallysim.policies.mlp import sha256_file
+
+    return {p.parent.name: sha256_file(p) for p in sorted(out.glob("runs/*/policy.safetensors"))}
+
+
+def test_training_is_deterministic_per_seed(smoke_run, tmp_path):
+    """Same seeds and budget on the same machine: bit-identical weights and the same table,
+    whether the seeds train one after another (the fixture) or in two worker processes."""
+    out, results = smoke_run
+    again = run_reproduce(BUDGETS["smoke"], tmp_path, workers=2)
+    first, second = _weight_hashes(out), _weight_hashes(tmp_path)
+    assert len(first) == 6  # low, high, mono x 2 seeds
+    assert first == second
+    for method, summary in results["methods"].items():
+        assert again["methods"][method]["mean"] == summary["mean"]
+    assert again["per_seed"] == results["per_seed"]
+
+
+def test_cap_lets_only_hits_end_a_rally(smoke_run, tmp_path):
+    """A reproduction re-evaluated at another cap keeps its training and writes its own files;
+    a scripted hierarchy rallies past 50 hits once the cap allows it."""
+    import numpy as np
+
+    from rallysim.eval.rally_eval import rally_lengths_turns, rules_for_cap
+
+    out, _ = smoke_run
+    results = run_reproduce(BUDGETS["smoke"], out, workers=1, cap=120)
+    assert results["cap"] == 120 and (out / "results_cap120.json").is_file()
+    assert (out / "report_cap120.md").read_text().count("reaching 120") == 2
+    assert json.loads((out / "results.json").read_text())["cap"] == 50  # untouched
+    assert len(results["methods"]["HRL"]["survival"]) == 121
+    rules = rules_for_cap(1000)
+    assert rules.max_hits == 1000 and rules.max_decisions >= 100 * 1000
+    lengths = rally_lengths_turns(lambda obs: np.full(len(obs), 3.5), "scripted", 16, 5,
+                                  rules_for_cap(200))
+    assert lengths.max() == 200  # reached the cap: the decision guard cut nothing
+    assert (lengths > 50).mean() > 0.5
+    with pytest.raises(ValueError, match="cap"):
+        rules_for_cap(0)
+    with pytest.raises(ValueError, match="cap"):
+        run_reproduce(BUDGETS["smoke"], out, cap=10**6)
+
+
 def test_evaluate_command_with_given_policies(smoke_run, tmp_path, capsys):
     out, _ = smoke_run
     runs = out / "runs"

@@ -42,14 +42,23 @@ def _size(text: str) -> tuple[int, int]:
     return w, h
 
 
-def _non_negative(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"must be >= 0, got {value}")
-    return value
+def _integer_at_least(low: int, high: int | None = None):
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
+        if value < low or (high is not None and value > high):
+            bounds = f">= {low}" if high is None else f"in [{low}, {high}]"
+            raise argparse.ArgumentTypeError(f"must be {bounds}, got {value}")
+        return value
+
+    return parse
+
+
+_non_negative = _integer_at_least(0)
+_positive = _integer_at_least(1)
+_cap = _integer_at_least(1, 100_000)
 
 
 def _render(args: argparse.Namespace) -> int:
@@ -171,17 +180,28 @@ def _reproduce(args: argparse.Namespace) -> int:
     """Train every stage and baseline on the chosen budget and write the Table VII report."""
     if _missing_train_extra("reproduce"):
         return 2
-    from rallysim.train.reproduce import BUDGETS, run_reproduce
+    from rallysim.train.reproduce import BUDGETS, result_names, run_reproduce
 
-    results = run_reproduce(BUDGETS[args.budget], Path(args.out), workers=args.workers)
-    print((Path(args.out) / "report.md").read_text())
+    results = run_reproduce(BUDGETS[args.budget], Path(args.out), workers=args.workers,
+                            seeds=args.seeds, cap=args.cap)
+    print((Path(args.out) / result_names(args.cap)["report"]).read_text())
     return 0 if results else 1
 
 
 def _rally_line(name: str, s: dict) -> str:
     return (f"{name:18s} mean rally {s['mean']['value']:6.2f} "
             f"[{s['mean']['low']:.2f}, {s['mean']['high']:.2f}]  median "
-            f"{s['median']['value']:5.1f}  reaching 50: {s['capped']}/{s['n_rallies']}")
+            f"{s['median']['value']:5.1f}  reaching {s['cap']}: {s['capped']}/{s['n_rallies']}")
+
+
+def _losses_line(name: str, s: dict) -> str:
+    def pct(key: str) -> str:
+        e = s[key]
+        return f"{100 * e['value']:.1f} % [{100 * e['low']:.1f}, {100 * e['high']:.1f}]"
+
+    return (f"{name:18s} serve returned {pct('serve_return')}, first return missed "
+            f"{pct('first_return_miss')}, lost before hit 2 {pct('early_loss')}, miss rate "
+            f"per later hit {pct('later_miss_rate')}")
 
 
 def _evaluate(args: argparse.Namespace) -> int:
@@ -206,9 +226,11 @@ def _evaluate(args: argparse.Namespace) -> int:
 
         results = evaluate_methods(args.low, args.high or "pretrained", args.mono,
                                    rallies=args.rallies, seeds=args.seeds,
-                                   shuttle=args.shuttle)
+                                   shuttle=args.shuttle, cap=args.cap)
         for method, s in results["methods"].items():
             print(_rally_line(method, s))
+        for method, s in results["methods"].items():
+            print(_losses_line(method, s))
     if args.json:
         Path(args.json).parent.mkdir(parents=True, exist_ok=True)
         Path(args.json).write_text(json.dumps(results, indent=1))
@@ -264,7 +286,13 @@ def build_parser() -> argparse.ArgumentParser:
                        help="default: ~15 min on 2 cores; quick: a look in ~5 min; scratch: "
                             "the default with the low level trained from scratch")
     repro.add_argument("--out", default="results")
-    repro.add_argument("--workers", type=int, default=3, help="seeds trained at once")
+    repro.add_argument("--workers", type=_positive, default=3, help="seeds trained at once")
+    repro.add_argument("--seeds", type=_positive,
+                       help="training seeds (default: the budget's, 3; the seed-spread study "
+                            "uses 5)")
+    repro.add_argument("--cap", type=_cap, default=50,
+                       help="rallies end at this many hits (default 50, the paper's; up to "
+                            "100000): only a landing or the cap ends a rally")
     repro.set_defaults(run=_reproduce)
 
     ev = sub.add_parser("evaluate", help="rally statistics of HRL, Random High-level, "
@@ -282,6 +310,9 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--mono", default="pretrained", help="Monolithic: path prefix or pretrained")
     ev.add_argument("--rallies", type=int, default=100, help="rallies per seed and method")
     ev.add_argument("--seeds", type=int, default=3, help="evaluation seeds")
+    ev.add_argument("--cap", type=_cap, default=50,
+                    help="SIMPLE rallies end at this many hits (default 50, the paper's; up "
+                         "to 100000)")
     ev.add_argument("--json", help="write every number here")
     ev.add_argument("--shuttle", default="paper", choices=("paper", "paper-alg1", "aero"))
     ev.set_defaults(run=_evaluate)

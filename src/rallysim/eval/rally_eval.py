@@ -18,6 +18,20 @@ from rallysim.envs.rally_task import RALLY_OBS_SIZE, RallyConfig, RallyTask
 from rallysim.envs.simple_obs import PLAYER_OBS_SIZE, TARGET_DEPTH_RANGE, normalise_depth
 from rallysim.envs.turn_task import LowLevel, TurnTask
 
+PAPER_CAP = 50  # hits: the paper's rally cap (SPEC §7)
+MAX_CAP = 100_000
+DECISIONS_PER_HIT = 100  # the stall guard's allowance: 10 s of play per hit
+
+
+def rules_for_cap(cap: int = PAPER_CAP, shuttle: str = "paper") -> RallyConfig:
+    """Cooperative rules whose rallies end only by a landing or at ``cap`` hits: the per-rally
+    decision limit (a stall guard) grows with the cap, so it never cuts a rally that is going."""
+    if not isinstance(cap, int | np.integer) or not 1 <= cap <= MAX_CAP:
+        raise ValueError(f"cap must be an integer number of hits in [1, {MAX_CAP}], got {cap!r}")
+    guard = max(RallyConfig.max_decisions, DECISIONS_PER_HIT * int(cap))
+    return RallyConfig(shuttle=shuttle, max_hits=int(cap), max_decisions=guard)
+
+
 HighLevel = Callable[[np.ndarray], np.ndarray]  # (M, 20) observations -> (M,) goals in metres
 Policy = Callable[[np.ndarray], np.ndarray]  # (M, obs) -> (M, 3) actions
 
@@ -43,12 +57,14 @@ def goal_conditioned(low_policy: Policy) -> LowLevel:
 
 def rally_lengths_turns(high_level: HighLevel, low_level: LowLevel | str, n_rallies: int,
                         seed: int, config: RallyConfig | None = None,
-                        max_turns: int = 10_000,
+                        max_turns: int | None = None,
                         rally: type[RallyTask] = RallyTask) -> np.ndarray:
     """Lengths of ``n_rallies`` rallies played turn by turn (cooperative rules). ``rally``:
     the rally core (``HumanLikeRallyTask`` for HUMAN-LIKE players, whose goals are (M, 3))."""
     turns = TurnTask(n_rallies, low_level, config, seed=seed, rally=rally)
     turns.reset(np.arange(n_rallies))
+    # a turn ends with a hit or the rally: a rally has at most max_hits + 1 turns
+    max_turns = max_turns or turns.rally.config.max_hits + 2
     lengths = np.full(n_rallies, -1, np.int64)
     for _ in range(max_turns):
         playing = np.flatnonzero(lengths < 0)
@@ -65,11 +81,11 @@ def rally_lengths_turns(high_level: HighLevel, low_level: LowLevel | str, n_rall
 
 
 def rally_lengths_direct(policy: Policy, n_rallies: int, seed: int,
-                         config: RallyConfig | None = None,
-                         max_decisions: int = 100_000) -> np.ndarray:
+                         config: RallyConfig | None = None) -> np.ndarray:
     """Lengths of ``n_rallies`` rallies where ``policy`` acts for both players every decision."""
     task = RallyTask(n_rallies, config, seed=seed)
     task.reset(np.arange(n_rallies))
+    max_decisions = task.config.max_decisions + 1  # the stall guard ends every rally by then
     lengths = np.full(n_rallies, -1, np.int64)
     for _ in range(max_decisions):
         playing = lengths < 0

@@ -75,6 +75,43 @@ def estimate(groups: Sequence[np.ndarray], statistic: Statistic, n_boot: int = 2
                     float(np.quantile(reps, 1.0 - a)))
 
 
+def early_loss(x: np.ndarray) -> np.ndarray:
+    """Share of rallies lost before the second hit: the serve or its first return missed."""
+    return (x < 2).mean(axis=-1)
+
+
+def serve_return(x: np.ndarray) -> np.ndarray:
+    """Share of rallies whose serve was returned (at least one hit)."""
+    return (x >= 1).mean(axis=-1)
+
+
+def first_return_miss(x: np.ndarray) -> np.ndarray:
+    """Of the rallies whose serve was returned, the share whose first return was not returned
+    (the rally ended at exactly one hit)."""
+    return (x == 1).sum(axis=-1) / np.maximum((x >= 1).sum(axis=-1), 1)
+
+
+def later_miss_rate(cap: int) -> Statistic:
+    """The per-hit miss rate from the third hit on: rallies ending at k in [2, cap) hits, over
+    every attempt at a hit k + 1 >= 3 made (a rally ending at k made k - 1 such attempts, one
+    of them missed; a capped rally made cap - 2, none missed)."""
+
+    def rate(x: np.ndarray) -> np.ndarray:
+        missed = ((x >= 2) & (x < cap)).sum(axis=-1)
+        attempts = np.where(x >= 2, np.where(x >= cap, cap - 2, x - 1), 0).sum(axis=-1)
+        return missed / np.maximum(attempts, 1)
+
+    return rate
+
+
+def survival_curve(x: np.ndarray, ks: np.ndarray) -> np.ndarray:
+    """P(length >= k) for each k of ``ks``, per row of ``x`` (B, M) -> (B, len(ks)); by sorting,
+    so that long caps (1000 hits) cost no (B, k, M) array."""
+    ordered = np.sort(x, axis=-1)
+    below = np.stack([np.searchsorted(row, ks, side="left") for row in ordered])
+    return 1.0 - below / x.shape[-1]
+
+
 @dataclass(frozen=True)
 class RallySummary:
     """Everything reported for one method's rally lengths."""
@@ -87,6 +124,10 @@ class RallySummary:
     iqm: Estimate
     capped: int
     capped_fraction: Estimate
+    serve_return: Estimate
+    first_return_miss: Estimate
+    early_loss: Estimate
+    later_miss_rate: Estimate
     survival_k: list[int]
     survival: list[float]
     survival_low: list[float]
@@ -98,16 +139,18 @@ class RallySummary:
 
 def summarise_rallies(groups: Sequence[np.ndarray], cap: int = 50, n_boot: int = 2000,
                       seed: int = 0) -> RallySummary:
-    """Mean, median, IQM (with 95 % CIs), capped count and fraction, and the survival curve
-    P(length >= k) for k = 0..cap with pointwise 95 % bands, of rally lengths per seed."""
+    """Mean, median, IQM (with 95 % CIs), capped count and fraction, where rallies are lost
+    (serve returned, first return missed, lost before the second hit, the per-hit miss rate
+    after that; each with its 95 % CI), and the survival curve P(length >= k) for k = 0..cap
+    with pointwise 95 % bands, of rally lengths per seed."""
     groups = [np.asarray(g, np.float64) for g in groups]
     data = np.concatenate(groups)
     if np.any(data < 0) or np.any(data > cap):
         raise ValueError(f"rally lengths must lie in [0, {cap}]")
     reps = bootstrap_replicates(groups, n_boot, np.random.default_rng(seed))
     ks = np.arange(cap + 1)
-    surv = (data[None, :] >= ks[:, None]).mean(axis=1)
-    surv_reps = (reps[:, None, :] >= ks[None, :, None]).mean(axis=2)  # (B, cap + 1)
+    surv = survival_curve(data[None], ks)[0]
+    surv_reps = survival_curve(reps, ks)  # (B, cap + 1)
 
     def est(stat: Statistic) -> Estimate:
         r = stat(reps)
@@ -121,6 +164,8 @@ def summarise_rallies(groups: Sequence[np.ndarray], cap: int = 50, n_boot: int =
         n_rallies=len(data), n_seeds=len(groups), cap=cap,
         mean=est(mean), median=est(median), iqm=est(iqm),
         capped=int((data >= cap).sum()), capped_fraction=est(capped_fraction),
+        serve_return=est(serve_return), first_return_miss=est(first_return_miss),
+        early_loss=est(early_loss), later_miss_rate=est(later_miss_rate(cap)),
         survival_k=ks.tolist(), survival=surv.tolist(),
         survival_low=np.quantile(surv_reps, 0.025, axis=0).tolist(),
         survival_high=np.quantile(surv_reps, 0.975, axis=0).tolist(),

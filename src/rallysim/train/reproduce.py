@@ -9,8 +9,16 @@ rallies per seed: HRL (trained high + low), Random High-level (trained low, goal
 Monolithic. The report gives mean, median and IQM rally lengths with 95 % hierarchical bootstrap
 intervals, the capped counts and survival curves, beside the paper's numbers.
 
+Rallies end at ``cap`` hits (default 50, the paper's; up to 100,000): only a landing or the
+cap ends a rally. Beside the mean, the report says where rallies are lost: the serve-return rate,
+the first return's miss rate, the early-loss rate (lost before the second hit) and the per-hit
+miss rate after that, pooled and per seed, with the worst seed named.
+
 Everything lands in ``out`` (``runs/`` per stage and seed, ``results.json``, ``report.md``,
-``learning_curves.png``, ``survival.png``); an interrupted reproduction resumes where it stopped.
+``learning_curves.png``, ``survival.png``; at another cap ``results_cap{N}.json`` and so on);
+an interrupted reproduction resumes where it stopped, and a finished one only re-evaluates.
+Training is deterministic: the same seed and budget on the same machine give bit-identical
+weights.
 """
 
 from __future__ import annotations
@@ -20,11 +28,14 @@ import multiprocessing as mp
 import sys
 import time
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from rallysim.eval.rally_eval import PAPER_CAP
+from rallysim.train.progress import Heartbeat, say_stderr
 
 PAPER_TABLE_VII = {
     "HRL": {"mean": 20.25, "capped": 13},
@@ -42,7 +53,7 @@ class Budget:
     name: str
     low_decisions: int
     high_turns: int
-    seeds: int
+    seeds: int  # training seeds (0 .. seeds - 1); ``--seeds`` sets another count
     rallies: int  # evaluation rallies per seed and method
     low_eval_episodes: int = 1000
     warm_start: str = "scripted"  # the low level's start: "scripted" (cloned) or "none"
@@ -58,19 +69,26 @@ class Budget:
 
 
 BUDGETS = {
-    "default": Budget("default", 2_000_000, 30_000, 3, 100),
+    "default": Budget("default", 2_000_000, 45_000, 3, 200),
     "quick": Budget("quick", 600_000, 3_000, 3, 100, 500),
     "smoke": Budget("smoke", 8_192, 256, 2, 8, 64, warm_start="none"),
     # the paper's method throughout: the low level trained from scratch
-    "scratch": Budget("scratch", 2_000_000, 30_000, 3, 100, warm_start="none"),
+    "scratch": Budget("scratch", 2_000_000, 45_000, 3, 200, warm_start="none"),
 }
 
 
 def _say(queue: Any, text: str) -> None:
     if queue is None:
-        print(text, file=sys.stderr, flush=True)
+        say_stderr(text)
     else:
         queue.put(text)
+
+
+def result_names(cap: int) -> dict[str, str]:
+    """The files a reproduction writes for its evaluation at ``cap`` hits."""
+    tag = "" if cap == PAPER_CAP else f"_cap{cap}"
+    return {"json": f"results{tag}.json", "report": f"report{tag}.md",
+            "survival": f"survival{tag}.png", "curves": "learning_curves.png"}
 
 
 def train_seed(seed: int, budget: Budget, out: Path, queue: Any = None) -> dict[str, Any]:
@@ -104,16 +122,24 @@ def train_seed(seed: int, budget: Budget, out: Path, queue: Any = None) -> dict[
             continue
         t = time.perf_counter()
         _say(queue, f"[seed {seed}] {stage}: training {config.decisions:,} steps ...")
-        curves[stage] = train_stage(config, run, progress=False)
+        curves[stage] = train_stage(config, run, progress=False,
+                                    say=lambda text: _say(queue, text))
         _say(queue, f"[seed {seed}] {stage}: done in {time.perf_counter() - t:.0f} s, "
                     + headline(config, curves[stage]["final"]))
     return curves
 
 
-def evaluate_seed(seed: int, out: Path, rallies: int, low_episodes: int) -> dict[str, Any]:
-    """Rally lengths of every method, and the low level's numbers, for one trained seed."""
+def evaluate_seed(seed: int, out: Path, rallies: int, low_episodes: int,
+                  cap: int = PAPER_CAP, beat: Heartbeat | None = None) -> dict[str, Any]:
+    """Rally lengths of every method (rallies end at ``cap`` hits), and the low level's
+    numbers, for one trained seed."""
     from rallysim.eval.low_eval import evaluate_return
-    from rallysim.eval.rally_eval import rally_lengths_direct, rally_lengths_turns, random_goals
+    from rallysim.eval.rally_eval import (
+        rally_lengths_direct,
+        rally_lengths_turns,
+        random_goals,
+        rules_for_cap,
+    )
     from rallysim.policies.mlp import load_policy
     from rallysim.policies.resolve import rally_low_level
     from rallysim.train.stages import goals_from_actions
@@ -124,35 +150,60 @@ def evaluate_seed(seed: int, out: Path, rallies: int, low_episodes: int) -> dict
     high = goals_from_actions(load_policy(runs / f"high_seed{seed}" / "policy"))
     mono = load_policy(runs / f"mono_seed{seed}" / "policy")
     eval_seed = 1_000_000 + 1000 * seed  # unseen by training (its envs use seed + i)
-    lengths = {
-        "HRL": rally_lengths_turns(high, low, rallies, eval_seed),
-        "Random High-level": rally_lengths_turns(random_goals(eval_seed), low, rallies,
-                                                 eval_seed),
-        "Monolithic": rally_lengths_direct(mono, rallies, eval_seed),
+    rules = rules_for_cap(cap)
+    plays = {
+        "HRL": lambda: rally_lengths_turns(high, low, rallies, eval_seed, rules),
+        "Random High-level": lambda: rally_lengths_turns(random_goals(eval_seed), low, rallies,
+                                                         eval_seed, rules),
+        "Monolithic": lambda: rally_lengths_direct(mono, rallies, eval_seed, rules),
     }
+    lengths = {}
+    for method, play in plays.items():
+        if beat is not None:
+            beat.set_phase(f"seed {seed} {method}", restart_rate=False)
+        lengths[method] = play()
+        if beat is not None:
+            beat.update(beat.done + 1)
     low_eval = evaluate_return(load_policy(low_prefix), episodes=low_episodes, seed=eval_seed)
     return {"lengths": {k: v.tolist() for k, v in lengths.items()},
             "low_level": low_eval.as_dict()}
 
 
-def run_reproduce(budget: Budget, out: Path, workers: int = 3) -> dict[str, Any]:
-    """Train every seed (``workers`` at a time), evaluate, and write the report."""
+def run_reproduce(budget: Budget, out: Path, workers: int = 3, seeds: int | None = None,
+                  cap: int = PAPER_CAP) -> dict[str, Any]:
+    """Train every seed (``workers`` at a time; ``seeds`` overrides the budget's count),
+    evaluate with rallies capped at ``cap`` hits, and write the report."""
+    from rallysim.eval.rally_eval import rules_for_cap
+
+    rules_for_cap(cap)  # refuse a bad cap before any training
+    if seeds is not None:
+        if seeds < 1:
+            raise ValueError(f"seeds must be >= 1, got {seeds}")
+        budget = replace(budget, seeds=int(seeds))
+    if workers < 1:
+        raise ValueError(f"workers must be >= 1, got {workers}")
     out.mkdir(parents=True, exist_ok=True)
+    names = result_names(cap)
     start = time.perf_counter()
-    print(f"reproduce ({budget.name}): {budget.seeds} seeds x (low {budget.low_decisions:,} "
-          f"decisions, high {budget.high_turns:,} turns, mono the same budget); results in "
-          f"{out}", file=sys.stderr, flush=True)
+    say_stderr(f"reproduce ({budget.name}): {budget.seeds} seeds x (low "
+               f"{budget.low_decisions:,} decisions, high {budget.high_turns:,} turns, mono the "
+               f"same budget); rallies capped at {cap} hits; results in {out}")
     curves = _train_all(budget, out, workers)
     train_wall = time.perf_counter() - start
-    print("evaluating ...", file=sys.stderr, flush=True)
-    per_seed = {s: evaluate_seed(s, out, budget.rallies, budget.low_eval_episodes)
-                for s in range(budget.seeds)}
-    results = summarise(budget, curves, per_seed, train_wall, time.perf_counter() - start)
-    (out / "results.json").write_text(json.dumps(results, indent=1))
-    (out / "report.md").write_text(markdown_report(results))
-    plot_learning_curves(curves, out / "learning_curves.png")
-    plot_survival(results, out / "survival.png")
-    print(f"done in {time.perf_counter() - start:.0f} s: {out / 'report.md'}", file=sys.stderr)
+    evaluations = 3 * budget.seeds
+    with Heartbeat("[evaluate]", evaluations, unit="rally sets") as beat:
+        per_seed = {}
+        for s in range(budget.seeds):
+            per_seed[s] = evaluate_seed(s, out, budget.rallies, budget.low_eval_episodes, cap,
+                                        beat)
+            hrl = np.mean(per_seed[s]["lengths"]["HRL"])
+            say_stderr(f"[evaluate] seed {s}: HRL mean rally {hrl:.2f} (cap {cap})")
+    results = summarise(budget, curves, per_seed, train_wall, time.perf_counter() - start, cap)
+    (out / names["json"]).write_text(json.dumps(results, indent=1))
+    (out / names["report"]).write_text(markdown_report(results))
+    plot_learning_curves(curves, out / names["curves"])
+    plot_survival(results, out / names["survival"])
+    say_stderr(f"done in {time.perf_counter() - start:.0f} s: {out / names['report']}")
     return results
 
 
@@ -179,28 +230,56 @@ def _train_all(budget: Budget, out: Path, workers: int) -> dict[int, dict[str, A
     return curves
 
 
+LOSS_KEYS = ("serve_return", "first_return_miss", "early_loss", "later_miss_rate")
+
+
 def summarise(budget: Budget, curves: dict[int, dict[str, Any]], per_seed: dict[int, Any],
-              train_wall: float, total_wall: float) -> dict[str, Any]:
+              train_wall: float, total_wall: float, cap: int = PAPER_CAP) -> dict[str, Any]:
+    """Pooled and per-seed statistics of every method, the pairwise interval comparisons and
+    the targets' checks, as one JSON-ready dict (what ``markdown_report`` renders)."""
     from rallysim.eval.stats import summarise_rallies
 
     seeds = sorted(per_seed)
-    methods = {}
+    methods, by_seed = {}, {}
     for m in METHODS:
         groups = [np.asarray(per_seed[s]["lengths"][m]) for s in seeds]
-        methods[m] = summarise_rallies(groups).to_dict()
-    def above(a: str, b: str) -> bool:  # a's whole interval above b's
-        return methods[a]["mean"]["low"] > methods[b]["mean"]["high"]
+        methods[m] = summarise_rallies(groups, cap=cap).to_dict()
+        by_seed[m] = {}
+        for s, g in zip(seeds, groups, strict=True):
+            one = summarise_rallies([g], cap=cap)
+            by_seed[m][str(s)] = {"mean": asdict(one.mean), "capped": one.capped,
+                                  "n_rallies": one.n_rallies,
+                                  **{k: asdict(getattr(one, k)) for k in LOSS_KEYS}}
+        worst = min(by_seed[m], key=lambda k: by_seed[m][k]["mean"]["value"])
+        methods[m]["worst_seed"] = {"seed": int(worst), **by_seed[m][worst]}
+
+    def above(a: str, b: str, key: str = "mean") -> bool:  # a's whole interval above b's
+        return methods[a][key]["low"] > methods[b][key]["high"]
 
     pairs = {f"{a} > {b}": above(a, b) for a in METHODS for b in METHODS if a != b}
     order_ok = above("HRL", "Random High-level") and above("Random High-level", "Monolithic")
     low = [per_seed[s]["low_level"] for s in seeds]
+    hrl_seeds = [by_seed["HRL"][str(s)] for s in seeds]
+    checks = {
+        "every_seed_hrl_mean_at_least_40": all(v["mean"]["value"] >= 40 for v in hrl_seeds),
+        "hrl_above_monolithic": above("HRL", "Monolithic"),
+        "hrl_above_random": above("HRL", "Random High-level"),
+        # lower early loss: HRL's whole interval below Monolithic's
+        "hrl_early_loss_below_monolithic": (methods["HRL"]["early_loss"]["high"]
+                                            < methods["Monolithic"]["early_loss"]["low"]),
+        "every_seed_hrl_capped_fraction_at_least_0.9": all(
+            v["capped"] >= 0.9 * v["n_rallies"] for v in hrl_seeds),
+    }
     return {
         "budget": asdict(budget),
+        "cap": cap,
         "wall_s": {"training": round(train_wall, 1), "total": round(total_wall, 1)},
         "paper": {"table_vii": PAPER_TABLE_VII, "low_level_reward": PAPER_LOW_REWARD},
         "methods": methods,
+        "methods_per_seed": by_seed,
         "order_hrl_random_mono_with_disjoint_cis": bool(order_ok),
         "disjoint_above": pairs,
+        "checks": checks,
         "low_level": {"per_seed": low,
                       "mean_reward": float(np.mean([r["mean_reward"] for r in low])),
                       "hit_rate": float(np.mean([r["hit_rate"] for r in low])),
@@ -212,8 +291,63 @@ def summarise(budget: Budget, curves: dict[int, dict[str, Any]], per_seed: dict[
     }
 
 
+def _ci(e: dict[str, float], digits: int = 2, scale: float = 1.0) -> str:
+    return (f"{scale * e['value']:.{digits}f} [{scale * e['low']:.{digits}f}, "
+            f"{scale * e['high']:.{digits}f}]")
+
+
+def table_vii(r: dict[str, Any]) -> list[str]:
+    """The pooled table, beside the paper's numbers."""
+    cap = r.get("cap", PAPER_CAP)
+    lines = [f"| method | mean rally [95 % CI] | median | IQM [95 % CI] | rallies reaching {cap} "
+             "| worst seed: mean | paper: mean | paper: reaching 50 |",
+             "|---|---|---|---|---|---|---|---|"]
+    for m, s in r["methods"].items():
+        p = r["paper"]["table_vii"][m]
+        w = s["worst_seed"]
+        lines.append(
+            f"| {m} | {_ci(s['mean'])} | {s['median']['value']:.1f} | {_ci(s['iqm'])} | "
+            f"{s['capped']} of {s['n_rallies']} ({100 * s['capped'] / s['n_rallies']:.0f} %) | "
+            f"{w['mean']['value']:.2f} (seed {w['seed']}) | {p['mean']:.2f} | {p['capped']} |")
+    return lines
+
+
+def per_seed_table(r: dict[str, Any]) -> list[str]:
+    """Each training seed's mean rally per method (95 % CI over its rallies)."""
+    cap = r.get("cap", PAPER_CAP)
+    lines = [f"| seed | {' | '.join(r['methods'])} | HRL reaching {cap} |",
+             "|---|" + "---|" * (len(r["methods"]) + 1)]
+    for seed in r["methods_per_seed"]["HRL"]:
+        row = [_ci(r["methods_per_seed"][m][seed]["mean"]) for m in r["methods"]]
+        h = r["methods_per_seed"]["HRL"][seed]
+        lines.append(f"| {seed} | {' | '.join(row)} | {h['capped']} of {h['n_rallies']} |")
+    return lines
+
+
+def losses_table(r: dict[str, Any]) -> list[str]:
+    """Where rallies are lost, per method (pooled, 95 % CIs, in %)."""
+    lines = ["| method | serve returned (%) | first return missed (%) | lost before hit 2 (%) | "
+             "miss rate per hit after (%) |", "|---|---|---|---|---|"]
+    for m, s in r["methods"].items():
+        lines.append(f"| {m} | " + " | ".join(
+            _ci(s[k], 2 if k == "later_miss_rate" else 1, 100.0) for k in LOSS_KEYS) + " |")
+    return lines
+
+
+def low_level_table(r: dict[str, Any]) -> list[str]:
+    """Each seed's low level on fresh serves (deterministic policy)."""
+    lines = ["| seed | mean episode reward | hit rate | landed in | median landing error |",
+             "|---|---|---|---|---|"]
+    for seed, low in zip(r["per_seed"], r["low_level"]["per_seed"], strict=True):
+        lines.append(f"| {seed} | {low['mean_reward']:.3f} | {low['hit_rate']:.3f} | "
+                     f"{low['in_rate']:.3f} | {low['median_error']:.2f} m |")
+    return lines
+
+
 def markdown_report(r: dict[str, Any]) -> str:
     b = r["budget"]
+    cap = r.get("cap", PAPER_CAP)
+    checks = r.get("checks", {})
     lines = [
         "# RallySim reproduction of the paper's Table VII (SIMPLE, cooperative rally)",
         "",
@@ -224,20 +358,23 @@ def markdown_report(r: dict[str, Any]) -> str:
            if b["warm_start"] == "scripted" else " from scratch (the paper's method)")
         + f", the high level {b['high_turns']:,} turns, the "
         "Monolithic baseline the same total budget; each method then played "
-        f"{b['rallies']} evaluation rallies per seed (capped at 50 hits). Wall time "
+        f"{b['rallies']} evaluation rallies per seed (capped at {cap} hits). Wall time "
         f"{r['wall_s']['total'] / 60:.1f} min (training {r['wall_s']['training'] / 60:.1f} min).",
         "",
-        "| method | mean rally [95 % CI] | median | IQM [95 % CI] | rallies reaching 50 | "
-        "paper: mean | paper: reaching 50 |",
-        "|---|---|---|---|---|---|---|",
+        *table_vii(r),
+        "",
+        "Per training seed (mean rally, 95 % CI over its rallies):",
+        "",
+        *per_seed_table(r),
+        "",
+        "Where rallies are lost (pooled, %, 95 % CIs):",
+        "",
+        *losses_table(r),
+        "",
+        "The low level per seed:",
+        "",
+        *low_level_table(r),
     ]
-    for m, s in r["methods"].items():
-        p = r["paper"]["table_vii"][m]
-        lines.append(
-            f"| {m} | {s['mean']['value']:.2f} [{s['mean']['low']:.2f}, {s['mean']['high']:.2f}]"
-            f" | {s['median']['value']:.1f} | {s['iqm']['value']:.2f} [{s['iqm']['low']:.2f}, "
-            f"{s['iqm']['high']:.2f}] | {s['capped']} of {s['n_rallies']} "
-            f"({100 * s['capped'] / s['n_rallies']:.0f} %) | {p['mean']:.2f} | {p['capped']} |")
     low = r["low_level"]
     lines += [
         "",
@@ -246,12 +383,16 @@ def markdown_report(r: dict[str, Any]) -> str:
         "Pairs whose intervals are disjoint: "
         + (", ".join(k for k, v in r["disjoint_above"].items() if v) or "none") + ".",
         "",
+        "Checks: " + ", ".join(f"{k}: **{'yes' if v else 'no'}**" for k, v in checks.items())
+        + ".",
+        "",
         f"Low level (deterministic policy, {b['low_eval_episodes']} fresh episodes per seed): "
         f"mean episode reward {low['mean_reward']:.3f} (paper about {PAPER_LOW_REWARD}; the "
         f"task's ceiling is about 1.72, see `benchmarks/low_level_ceiling.py`), hit rate "
         f"{low['hit_rate']:.3f}, median landing error {low['median_error']:.2f} m.",
         "",
-        "The cap censors the mean: see `survival.png` for P(rally length >= k).",
+        f"The cap censors the mean: see `{result_names(cap)['survival']}` for "
+        "P(rally length >= k).",
         "Intervals: hierarchical bootstrap (seeds, then rallies), 2,000 replicates.",
         "",
     ]
@@ -297,7 +438,10 @@ def plot_survival(results: dict[str, Any], path: Path) -> None:
                         alpha=0.2)
     ax.set_xlabel("rally length k (hits)")
     ax.set_ylabel("P(rally length >= k)")
-    ax.set_title("Survival of rallies (95 % bootstrap bands; cap 50)")
+    cap = results.get("cap", PAPER_CAP)
+    ax.set_title(f"Survival of rallies (95 % bootstrap bands; cap {cap})")
+    if cap > 200:
+        ax.set_xscale("symlog", linthresh=10)
     ax.set_ylim(0, 1.02)
     ax.grid(alpha=0.3)
     ax.legend()

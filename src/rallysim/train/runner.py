@@ -10,6 +10,10 @@ What a run leaves in ``out_dir``:
 | ``curve.json`` | evaluations and per-rollout training returns, with wall times |
 | ``tb/`` | TensorBoard logs (``tensorboard --logdir out_dir/tb``) |
 
+Progress: a bar with ETA when stderr is a terminal; otherwise (a log, CI, ``reproduce``) a
+line at least every 30 s with the stage, seed, phase, steps, rate and ETA
+(``rallysim.train.progress``).
+
 A run started again on the same ``out_dir`` resumes from its newest checkpoint (after any
 interruption, ``kill -9`` included), losing at most one checkpoint interval; a checkpoint made
 with another stage or network is refused with a clear error.
@@ -30,13 +34,14 @@ import yaml
 from rallysim.train import checkpoint as ckpt
 from rallysim.train import stages
 from rallysim.train.config import TrainConfig
+from rallysim.train.progress import Heartbeat, Say, say_stderr
 
 
 class _Monitor:
     """SB3 callback: progress bar with ETA, evaluations, checkpoints, the learning curve."""
 
     def __init__(self, config: TrainConfig, out: Path, curve: dict[str, Any],
-                 progress: bool) -> None:
+                 progress: bool, beat: Heartbeat | None) -> None:
         from stable_baselines3.common.callbacks import BaseCallback
 
         monitor = self
@@ -50,6 +55,7 @@ class _Monitor:
 
         self.callback = Callback()
         self.config, self.out, self.curve, self.progress = config, out, curve, progress
+        self.beat = beat
         self.bar: Any = None
         self.eval_wall = 0.0
         self.start = time.perf_counter() - curve.get("train_wall_s", 0.0)
@@ -59,7 +65,10 @@ class _Monitor:
         self.next_ckpt = (done // config.checkpoint_every + 1) * config.checkpoint_every
 
     def open_bar(self, done: int) -> None:
-        if self.progress:
+        if self.beat is not None:
+            self.beat.update(done)
+            self.beat.set_phase("PPO")
+        elif self.progress:
             from tqdm import tqdm
 
             self.bar = tqdm(total=self.config.decisions, initial=done, unit="step",
@@ -78,6 +87,8 @@ class _Monitor:
         if self.bar is not None:
             self.bar.update(steps - self.bar.n)
             self.bar.set_postfix_str(f"ep_rew {ep_rew:.3f}", refresh=False)
+        if self.beat is not None:
+            self.beat.update(steps)
         if steps >= self.next_eval:
             self.evaluate(model)
             while self.next_eval <= steps:
@@ -99,12 +110,13 @@ class _Monitor:
         for key, value in result.items():
             if logger is not None:
                 logger.record(f"eval/{key}", value)
-        message = f"[{self.config.stage}] {row['steps']:>10,} steps: " + stages.headline(
-            self.config, result)
+        c = self.config
+        message = (f"[{c.stage} seed {c.seed}] {row['steps']:>10,} steps: "
+                   + stages.headline(c, result))
         if self.bar is not None:
             self.bar.write(message)
-        elif self.progress:
-            print(message, file=sys.stderr, flush=True)
+        elif self.beat is not None:
+            self.beat.say(message)
         return row
 
     def save(self, model: Any) -> None:
@@ -126,10 +138,23 @@ def build_model(config: TrainConfig, out: Path) -> Any:
 
 
 def train_stage(config: TrainConfig, out_dir: str | Path, resume: bool = True,
-                progress: bool = True) -> dict[str, Any]:
+                progress: bool = True, say: Say | None = None) -> dict[str, Any]:
     """Train ``config.stage`` into ``out_dir`` (resuming there if it holds a checkpoint) and
-    return the learning curve with the final evaluation."""
-    out = Path(out_dir)
+    return the learning curve with the final evaluation. ``progress``: a bar on a terminal,
+    else progress lines on stderr; ``say``: where progress lines go instead (no bar)."""
+    tty = say is None and progress and sys.stderr.isatty()
+    if say is None and progress and not tty:
+        say = say_stderr
+    beat = None if say is None else Heartbeat(f"[{config.stage} seed {config.seed}]",
+                                             config.decisions, say)
+    if beat is None:
+        return _train_stage(config, Path(out_dir), resume, progress, None)
+    with beat:
+        return _train_stage(config, Path(out_dir), resume, progress, beat)
+
+
+def _train_stage(config: TrainConfig, out: Path, resume: bool, progress: bool,
+                 beat: Heartbeat | None) -> dict[str, Any]:
     out.mkdir(parents=True, exist_ok=True)
     model = build_model(config, out)
     curve: dict[str, Any] = {"stage": config.stage, "evals": [], "rollouts": []}
@@ -139,13 +164,16 @@ def train_stage(config: TrainConfig, out_dir: str | Path, resume: bool = True,
                                                             "network": config.network()})
         ckpt.restore(model, doc, tensors)
         curve = doc["curve"]
-        if progress:
-            print(f"resuming {config.stage} from {latest.name} "
-                  f"({model.num_timesteps:,} steps done)", file=sys.stderr, flush=True)
+        if progress or beat is not None:
+            (beat.say if beat is not None else say_stderr)(
+                f"resuming {config.stage} from {latest.name} "
+                f"({model.num_timesteps:,} steps done)")
     elif config.warm_start == "scripted":
-        curve["warm_start"] = warm_start(model, config, progress)
+        if beat is not None:
+            beat.set_phase("warm start (behaviour cloning)")
+        curve["warm_start"] = warm_start(model, config, progress and beat is None)
     (out / "config.yaml").write_text(yaml.safe_dump(config.to_dict(), sort_keys=False))
-    monitor = _Monitor(config, out, curve, progress)
+    monitor = _Monitor(config, out, curve, progress, beat)
     remaining = config.decisions - int(model.num_timesteps)
     monitor.open_bar(int(model.num_timesteps))
     try:

@@ -1,0 +1,93 @@
+"""docs/results.md's tables, generated from the JSON that ``rallysim reproduce`` wrote.
+
+Each generated block sits between ``<!-- BEGIN GENERATED: NAME -->`` and
+``<!-- END GENERATED: NAME -->`` and is rendered from ``docs/data/NAME.json`` (a reproduction's
+``results*.json``, committed). ``python -m rallysim.train.results_doc`` rewrites the blocks;
+``--check`` exits 1 when a block differs from what its JSON gives (a test runs the check), so
+the numbers in the docs cannot drift from the run they describe.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import re
+import sys
+from pathlib import Path
+from typing import Any
+
+from rallysim.train.reproduce import losses_table, low_level_table, per_seed_table, table_vii
+
+BLOCK = re.compile(r"(<!-- BEGIN GENERATED: (?P<name>[\w.-]+) -->\n)(?P<body>.*?)"
+                   r"(<!-- END GENERATED: (?P=name) -->)", re.S)
+
+
+def render(results: dict[str, Any]) -> str:
+    """The tables of one reproduction: pooled, per seed, where rallies are lost."""
+    b, cap = results["budget"], results["cap"]
+    checks = results["checks"]
+    lines = [
+        f"{b['seeds']} training seeds, {b['rallies']} evaluation rallies per seed and method, "
+        f"rallies capped at {cap} hits.",
+        "",
+        *table_vii(results),
+        "",
+        "Per training seed (mean rally, 95 % CI over its rallies):",
+        "",
+        *per_seed_table(results),
+        "",
+        "Where rallies are lost (pooled, 95 % CIs):",
+        "",
+        *losses_table(results),
+        "",
+        "The low level per seed (deterministic policy, fresh serves):",
+        "",
+        *low_level_table(results),
+        "",
+        "Checks: " + ", ".join(f"`{k}` **{'yes' if v else 'no'}**" for k, v in checks.items())
+        + ".",
+        "",
+    ]
+    return "\n".join(lines)
+
+
+def blocks(doc: str) -> list[str]:
+    return [m["name"] for m in BLOCK.finditer(doc)]
+
+
+def regenerate(doc: str, data_dir: Path) -> str:
+    """``doc`` with every generated block rendered again from ``data_dir/NAME.json``."""
+
+    def fill(m: re.Match[str]) -> str:
+        path = data_dir / f"{m['name']}.json"
+        if not path.is_file():
+            raise FileNotFoundError(f"generated block {m['name']!r} needs {path}")
+        return m.group(1) + render(json.loads(path.read_text())) + m.group(4)
+
+    return BLOCK.sub(fill, doc)
+
+
+def main(argv: list[str] | None = None) -> int:
+    root = Path(__file__).resolve().parents[3]
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--doc", type=Path, default=root / "docs" / "results.md")
+    parser.add_argument("--data", type=Path, default=root / "docs" / "data")
+    parser.add_argument("--check", action="store_true",
+                        help="exit 1 if a block differs from its JSON; write nothing")
+    args = parser.parse_args(argv)
+    doc = args.doc.read_text()
+    new = regenerate(doc, args.data)
+    if args.check:
+        if new != doc:
+            print(f"{args.doc}: generated blocks differ from {args.data}; run "
+                  "python -m rallysim.train.results_doc", file=sys.stderr)
+            return 1
+        print(f"{args.doc}: {len(blocks(doc))} generated blocks match their JSON")
+        return 0
+    args.doc.write_text(new)
+    print(f"{args.doc}: {len(blocks(doc))} generated blocks written")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,51 @@
+"""Progress lines when output is not a terminal: at least one per interval, with the stage,
+seed, phase, steps done, rate and ETA."""
+
+from __future__ import annotations
+
+import time
+
+import pytest
+
+from rallysim.train import progress
+from rallysim.train.progress import Heartbeat, format_eta
+
+
+def test_heartbeat_reports_steps_rate_and_eta():
+    lines: list[str] = []
+    with Heartbeat("[low seed 2]", 1000, lines.append, every=0.05) as beat:
+        beat.set_phase("PPO")
+        beat.update(250)
+        time.sleep(0.3)
+    assert len(lines) >= 3  # about one per 0.05 s
+    last = lines[-1]
+    assert last.startswith("[low seed 2] PPO: 250/1,000 steps, ")
+    rate = float(last.split("steps, ")[1].split("/s")[0].replace(",", ""))
+    assert 250 / 0.5 < rate < 250 / 0.05  # 250 steps over the 0.05-0.5 s since the phase began
+    assert "ETA 0:0" in last  # 750 steps to go at that rate: seconds
+    with pytest.raises(ValueError):
+        Heartbeat("x", 1, every=0)
+
+
+def test_eta_format():
+    assert format_eta(float("nan")) == "?"
+    assert format_eta(75) == "1:15"
+    assert format_eta(3 * 3600 + 62) == "3:01:02"
+
+
+def test_training_without_a_terminal_prints_progress_lines(tmp_path, monkeypatch):
+    pytest.importorskip("stable_baselines3")
+    from rallysim.train.config import load_config
+    from rallysim.train.runner import train_stage
+
+    monkeypatch.setattr(progress, "HEARTBEAT_S", 0.2)
+    config = load_config("low", None, {"seed": 5, "n_envs": 32, "n_steps": 16,
+                                       "batch_size": 256, "decisions": 16384, "eval_every": 0,
+                                       "eval_episodes": 16, "checkpoint_every": 10**6})
+    lines: list[str] = []
+    train_stage(config, tmp_path, progress=False, say=lines.append)
+    beats = [line for line in lines if line.startswith("[low seed 5] PPO: ")]
+    assert beats, lines
+    done = [int(b.split(": ")[1].split("/")[0].replace(",", "")) for b in beats]
+    assert done == sorted(done) and all(d <= 16384 for d in done)
+    assert all("/s, ETA " in b for b in beats)
