@@ -99,3 +99,13 @@ def test_training_commands_name_the_missing_extra(monkeypatch, capsys):
     assert main(["reproduce", "--budget", "smoke"]) == 2
     assert main(["train", "low"]) == 2
     assert "missing: stable_baselines3" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("argv", [["reproduce", "--cap", "0"], ["reproduce", "--cap", "100001"],
+                                  ["reproduce", "--seeds", "0"], ["evaluate", "--cap", "x"]])
+def test_bad_cap_and_seeds_are_one_line_errors(argv, capsys):
+    with pytest.raises(SystemExit) as err:
+        main(argv)
+    assert err.value.code == 2
+    message = capsys.readouterr().err.strip().splitlines()[-1]
+    assert "--cap" in message or "--seeds" in message

@@ -49,3 +49,22 @@ def test_training_without_a_terminal_prints_progress_lines(tmp_path, monkeypatch
     done = [int(b.split(": ")[1].split("/")[0].replace(",", "")) for b in beats]
     assert done == sorted(done) and all(d <= 16384 for d in done)
     assert all("/s, ETA " in b for b in beats)
+
+
+@pytest.mark.parametrize("tty", [False, True])
+def test_progress_lines_only_without_a_terminal(tmp_path, monkeypatch, capsys, tty):
+    """``train`` (progress on): a bar on a terminal; heartbeat lines on stderr otherwise."""
+    pytest.importorskip("stable_baselines3")
+    import sys
+
+    from rallysim.train.config import load_config
+    from rallysim.train.runner import train_stage
+
+    monkeypatch.setattr(progress, "HEARTBEAT_S", 0.2)
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: tty)
+    config = load_config("low", None, {"seed": 6, "n_envs": 32, "n_steps": 16,
+                                       "batch_size": 256, "decisions": 16384, "eval_every": 0,
+                                       "eval_episodes": 16, "checkpoint_every": 10**6})
+    train_stage(config, tmp_path, progress=True)
+    err = capsys.readouterr().err
+    assert ("[low seed 6] PPO: " in err) is not tty

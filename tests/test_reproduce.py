@@ -63,6 +63,8 @@ def test_training_is_deterministic_per_seed(smoke_run, tmp_path):
 def test_cap_lets_only_hits_end_a_rally(smoke_run, tmp_path):
     """A reproduction re-evaluated at another cap keeps its training and writes its own files;
     a scripted hierarchy rallies past 50 hits once the cap allows it."""
+    from dataclasses import replace
+
     import numpy as np
 
     from rallysim.eval.rally_eval import rally_lengths_turns, rules_for_cap
@@ -73,12 +75,14 @@ def test_cap_lets_only_hits_end_a_rally(smoke_run, tmp_path):
     assert (out / "report_cap120.md").read_text().count("reaching 120") == 2
     assert json.loads((out / "results.json").read_text())["cap"] == 50  # untouched
     assert len(results["methods"]["HRL"]["survival"]) == 121
-    rules = rules_for_cap(1000)
-    assert rules.max_hits == 1000 and rules.max_decisions >= 100 * 1000
-    lengths = rally_lengths_turns(lambda obs: np.full(len(obs), 3.5), "scripted", 16, 5,
-                                  rules_for_cap(200))
-    assert lengths.max() == 200  # reached the cap: the decision guard cut nothing
-    assert (lengths > 50).mean() > 0.5
+    # scripted rallies take about 15 decisions a hit: 400 hits outlast the old 5,000-decision
+    # guard, which cut such rallies; the cap's own guard cuts nothing
+    goals = lambda obs: np.full(len(obs), 3.5)  # noqa: E731
+    lengths = rally_lengths_turns(goals, "scripted", 4, 5, rules_for_cap(400))
+    assert (lengths == 400).all()
+    with pytest.raises(RuntimeError, match="decision limit"):
+        rally_lengths_turns(goals, "scripted", 4, 5, replace(rules_for_cap(400),
+                                                             max_decisions=5000))
     with pytest.raises(ValueError, match="cap"):
         rules_for_cap(0)
     with pytest.raises(ValueError, match="cap"):

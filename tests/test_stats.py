@@ -44,3 +44,33 @@ def test_rally_summary_numbers():
     assert s.mean.low <= s.mean.value <= s.mean.high
     with pytest.raises(ValueError):
         summarise_rallies([np.array([51])], cap=50)
+
+
+def test_where_rallies_are_lost():
+    """Serve returned, first return missed, early loss and the later per-hit miss rate, by hand:
+    lengths 0, 1, 1, 2, 5, 50, 50 at cap 50."""
+    from rallysim.eval.stats import survival_curve
+
+    s = summarise_rallies([np.array([0, 1, 1, 2, 5]), np.array([50, 50])], cap=50, n_boot=300)
+    assert s.serve_return.value == pytest.approx(6 / 7)
+    assert s.first_return_miss.value == pytest.approx(2 / 6)
+    assert s.early_loss.value == pytest.approx(3 / 7)
+    # attempts at hits 3+: length 2 -> 1 (missed), 5 -> 4 (1 missed), 50 -> 48 each (none)
+    assert s.later_miss_rate.value == pytest.approx(2 / (1 + 4 + 48 + 48))
+    for e in (s.serve_return, s.first_return_miss, s.early_loss, s.later_miss_rate):
+        assert e.low <= e.value <= e.high
+    x = np.array([[0.0, 3, 3, 7]])
+    assert survival_curve(x, np.array([0, 1, 3, 4, 7, 8]))[0].tolist() == [1, 0.75, 0.75, 0.25,
+                                                                          0.25, 0]
+    long = summarise_rallies([np.array([1000, 999, 2])], cap=1000, n_boot=50)
+    assert len(long.survival) == 1001 and long.survival[1000] == pytest.approx(1 / 3)
+
+
+def test_loss_statistics_with_nothing_to_count_or_cap_one():
+    none_returned = summarise_rallies([np.array([0, 0, 0])], cap=50, n_boot=50)
+    assert np.isnan(none_returned.first_return_miss.value)
+    assert np.isnan(none_returned.later_miss_rate.value)
+    assert none_returned.early_loss.value == 1.0
+    capped_at_one = summarise_rallies([np.array([1, 1, 1, 0])], cap=1, n_boot=50)
+    assert capped_at_one.early_loss.value == pytest.approx(0.25)  # the capped ones were not lost
+    assert np.isnan(capped_at_one.first_return_miss.value)

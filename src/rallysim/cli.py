@@ -195,13 +195,14 @@ def _rally_line(name: str, s: dict) -> str:
 
 
 def _losses_line(name: str, s: dict) -> str:
-    def pct(key: str) -> str:
+    def pct(key: str, digits: int = 1) -> str:
         e = s[key]
-        return f"{100 * e['value']:.1f} % [{100 * e['low']:.1f}, {100 * e['high']:.1f}]"
+        v, lo, hi = (100 * e[k] for k in ("value", "low", "high"))
+        return f"{v:.{digits}f} % [{lo:.{digits}f}, {hi:.{digits}f}]"
 
     return (f"{name:18s} serve returned {pct('serve_return')}, first return missed "
             f"{pct('first_return_miss')}, lost before hit 2 {pct('early_loss')}, miss rate "
-            f"per later hit {pct('later_miss_rate')}")
+            f"per later hit {pct('later_miss_rate', 2)}")
 
 
 def _evaluate(args: argparse.Namespace) -> int:
@@ -209,6 +210,9 @@ def _evaluate(args: argparse.Namespace) -> int:
     HUMAN-LIKE low level and its 3-D rally."""
     import json
 
+    if args.env == "humanlike" and args.cap != 50:
+        print("rallysim evaluate: error: --cap applies to SIMPLE rallies only", file=sys.stderr)
+        return 2
     if args.env == "humanlike":
         from rallysim.eval.humanlike_eval import evaluate_humanlike_player
 
@@ -223,10 +227,17 @@ def _evaluate(args: argparse.Namespace) -> int:
               + f"  (target mean >= {t['mean_rally']:g})")
     else:
         from rallysim.eval.compare import evaluate_methods
+        from rallysim.train.progress import Heartbeat, say_stderr
 
-        results = evaluate_methods(args.low, args.high or "pretrained", args.mono,
-                                   rallies=args.rallies, seeds=args.seeds,
-                                   shuttle=args.shuttle, cap=args.cap)
+        def say(text: str) -> None:  # progress lines only where no one watches a terminal
+            if not sys.stderr.isatty():
+                say_stderr(text)
+
+        with Heartbeat("[evaluate]", 3 * args.seeds, say, unit="rally sets") as beat:
+            beat.set_phase(f"{args.rallies} rallies x {args.seeds} seeds, cap {args.cap}")
+            results = evaluate_methods(args.low, args.high or "pretrained", args.mono,
+                                       rallies=args.rallies, seeds=args.seeds,
+                                       shuttle=args.shuttle, cap=args.cap)
         for method, s in results["methods"].items():
             print(_rally_line(method, s))
         for method, s in results["methods"].items():

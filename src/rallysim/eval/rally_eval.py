@@ -32,6 +32,16 @@ def rules_for_cap(cap: int = PAPER_CAP, shuttle: str = "paper") -> RallyConfig:
     return RallyConfig(shuttle=shuttle, max_hits=int(cap), max_decisions=guard)
 
 
+def _refuse_stalls(truncated: np.ndarray, length: np.ndarray, config: RallyConfig) -> None:
+    """Only a landing or the hit cap may end an evaluation rally: a rally the decision limit
+    cut below the cap is an error, not a miss."""
+    stalled = truncated & (length < config.max_hits)
+    if stalled.any():
+        raise RuntimeError(f"{int(stalled.sum())} rallies were cut by the decision limit "
+                           f"({config.max_decisions}) at {length[stalled].min()} hits, below "
+                           f"the cap of {config.max_hits}; raise RallyConfig.max_decisions")
+
+
 HighLevel = Callable[[np.ndarray], np.ndarray]  # (M, 20) observations -> (M,) goals in metres
 Policy = Callable[[np.ndarray], np.ndarray]  # (M, obs) -> (M, 3) actions
 
@@ -64,7 +74,8 @@ def rally_lengths_turns(high_level: HighLevel, low_level: LowLevel | str, n_rall
     turns = TurnTask(n_rallies, low_level, config, seed=seed, rally=rally)
     turns.reset(np.arange(n_rallies))
     # a turn ends with a hit or the rally: a rally has at most max_hits + 1 turns
-    max_turns = max_turns or turns.rally.config.max_hits + 2
+    if max_turns is None:
+        max_turns = turns.rally.config.max_hits + 2
     lengths = np.full(n_rallies, -1, np.int64)
     for _ in range(max_turns):
         playing = np.flatnonzero(lengths < 0)
@@ -75,6 +86,8 @@ def rally_lengths_turns(high_level: HighLevel, low_level: LowLevel | str, n_rall
         goals[playing] = np.asarray(high_level(turns.observe()[playing])).reshape(
             goals[playing].shape)
         out = turns.step(goals, playing)
+        _refuse_stalls(out["truncated"][playing], out["rally_length"][playing],
+                       turns.rally.config)
         done = playing[(out["terminated"] | out["truncated"])[playing]]
         lengths[done] = out["rally_length"][done]
     raise RuntimeError(f"rallies still going after {max_turns} turns")
@@ -94,6 +107,7 @@ def rally_lengths_direct(policy: Policy, n_rallies: int, seed: int,
         obs = task.observe().reshape(2 * n_rallies, RALLY_OBS_SIZE)
         actions = np.clip(policy(obs), -1.0, 1.0).reshape(n_rallies, 2, 3)
         _, term, trunc, info = task.step(actions, active=playing)
+        _refuse_stalls(trunc[playing], info["rally_length"][playing], task.config)
         done = playing & (term | trunc)
         lengths[done] = info["rally_length"][done]
     raise RuntimeError(f"rallies still going after {max_decisions} decisions")

@@ -75,9 +75,10 @@ def estimate(groups: Sequence[np.ndarray], statistic: Statistic, n_boot: int = 2
                     float(np.quantile(reps, 1.0 - a)))
 
 
-def early_loss(x: np.ndarray) -> np.ndarray:
-    """Share of rallies lost before the second hit: the serve or its first return missed."""
-    return (x < 2).mean(axis=-1)
+def _share(count: np.ndarray, of: np.ndarray) -> np.ndarray:
+    """count / of, NaN where there is nothing to count (bootstrap intervals skip those)."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(of > 0, count / np.maximum(of, 1), np.nan)
 
 
 def serve_return(x: np.ndarray) -> np.ndarray:
@@ -85,21 +86,28 @@ def serve_return(x: np.ndarray) -> np.ndarray:
     return (x >= 1).mean(axis=-1)
 
 
-def first_return_miss(x: np.ndarray) -> np.ndarray:
+def early_loss(cap: int) -> Statistic:
+    """Share of rallies lost before the second hit (the serve or its first return missed); a
+    rally that reached the cap was not lost."""
+    return lambda x: ((x < 2) & (x < cap)).mean(axis=-1)
+
+
+def first_return_miss(cap: int) -> Statistic:
     """Of the rallies whose serve was returned, the share whose first return was not returned
-    (the rally ended at exactly one hit)."""
-    return (x == 1).sum(axis=-1) / np.maximum((x >= 1).sum(axis=-1), 1)
+    (the rally ended at exactly one hit below the cap); NaN at cap 1 or with no return."""
+    return lambda x: _share(((x == 1) & (cap > 1)).sum(axis=-1),
+                            ((x >= 1) & (cap > 1)).sum(axis=-1))
 
 
 def later_miss_rate(cap: int) -> Statistic:
     """The per-hit miss rate from the third hit on: rallies ending at k in [2, cap) hits, over
     every attempt at a hit k + 1 >= 3 made (a rally ending at k made k - 1 such attempts, one
-    of them missed; a capped rally made cap - 2, none missed)."""
+    of them missed; a capped rally made cap - 2, none missed). NaN with no attempt."""
 
     def rate(x: np.ndarray) -> np.ndarray:
         missed = ((x >= 2) & (x < cap)).sum(axis=-1)
         attempts = np.where(x >= 2, np.where(x >= cap, cap - 2, x - 1), 0).sum(axis=-1)
-        return missed / np.maximum(attempts, 1)
+        return _share(missed, attempts)
 
     return rate
 
@@ -154,8 +162,10 @@ def summarise_rallies(groups: Sequence[np.ndarray], cap: int = 50, n_boot: int =
 
     def est(stat: Statistic) -> Estimate:
         r = stat(reps)
-        return Estimate(float(stat(data[None])[0]), float(np.quantile(r, 0.025)),
-                        float(np.quantile(r, 0.975)))
+        if np.isnan(r).all():
+            return Estimate(float(stat(data[None])[0]), float("nan"), float("nan"))
+        return Estimate(float(stat(data[None])[0]), float(np.nanquantile(r, 0.025)),
+                        float(np.nanquantile(r, 0.975)))
 
     def capped_fraction(x: np.ndarray) -> np.ndarray:
         return (x >= cap).mean(axis=-1)
@@ -164,8 +174,8 @@ def summarise_rallies(groups: Sequence[np.ndarray], cap: int = 50, n_boot: int =
         n_rallies=len(data), n_seeds=len(groups), cap=cap,
         mean=est(mean), median=est(median), iqm=est(iqm),
         capped=int((data >= cap).sum()), capped_fraction=est(capped_fraction),
-        serve_return=est(serve_return), first_return_miss=est(first_return_miss),
-        early_loss=est(early_loss), later_miss_rate=est(later_miss_rate(cap)),
+        serve_return=est(serve_return), first_return_miss=est(first_return_miss(cap)),
+        early_loss=est(early_loss(cap)), later_miss_rate=est(later_miss_rate(cap)),
         survival_k=ks.tolist(), survival=surv.tolist(),
         survival_low=np.quantile(surv_reps, 0.025, axis=0).tolist(),
         survival_high=np.quantile(surv_reps, 0.975, axis=0).tolist(),

@@ -19,7 +19,9 @@ HEARTBEAT_S = 30.0
 
 
 def say_stderr(text: str) -> None:
-    print(text, file=sys.stderr, flush=True)
+    # one write per line, so that the heartbeat's thread and the work never split a line
+    sys.stderr.write(text + "\n")
+    sys.stderr.flush()
 
 
 def format_eta(seconds: float) -> str:
@@ -59,9 +61,10 @@ class Heartbeat:
     def line(self) -> str:
         elapsed = time.perf_counter() - self._phase_start
         rate = (self.done - self._phase_done0) / elapsed if elapsed > 0 else 0.0
-        eta = (self.total - self.done) / rate if rate > 0 else float("nan")
+        eta = max(0.0, self.total - self.done) / rate if rate > 0 else float("nan")
+        shown = f"{rate:,.0f}" if rate >= 10 else f"{rate:.2g}"
         return (f"{self.label} {self.phase}: {self.done:,}/{self.total:,} {self.unit}, "
-                f"{rate:,.0f}/s, ETA {format_eta(eta)} ({elapsed:.0f} s in this phase)")
+                f"{shown}/s, ETA {format_eta(eta)} ({elapsed:.0f} s in this phase)")
 
     def _run(self) -> None:
         while not self._stop.wait(self.every):
