@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import sys
 import time
 from pathlib import Path
@@ -227,17 +228,15 @@ def _evaluate(args: argparse.Namespace) -> int:
               + f"  (target mean >= {t['mean_rally']:g})")
     else:
         from rallysim.eval.compare import evaluate_methods
-        from rallysim.train.progress import Heartbeat, say_stderr
+        from rallysim.train.progress import Heartbeat, progress_lines
 
-        def say(text: str) -> None:  # progress lines only where no one watches a terminal
-            if not sys.stderr.isatty():
-                say_stderr(text)
-
-        with Heartbeat("[evaluate]", 3 * args.seeds, say, unit="rally sets") as beat:
-            beat.set_phase(f"{args.rallies} rallies x {args.seeds} seeds, cap {args.cap}")
+        say = progress_lines()
+        beat = None if say is None else Heartbeat("[evaluate]", 3 * args.seeds, say,
+                                                  unit="rally sets")
+        with beat or contextlib.nullcontext():
             results = evaluate_methods(args.low, args.high or "pretrained", args.mono,
                                        rallies=args.rallies, seeds=args.seeds,
-                                       shuttle=args.shuttle, cap=args.cap)
+                                       shuttle=args.shuttle, cap=args.cap, beat=beat)
         for method, s in results["methods"].items():
             print(_rally_line(method, s))
         for method, s in results["methods"].items():

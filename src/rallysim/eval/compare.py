@@ -2,12 +2,16 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from rallysim.envs.rally_task import RallyConfig
+from rallysim.envs.turn_task import LowLevel
 from rallysim.eval.rally_eval import (
     PAPER_CAP,
+    HighLevel,
+    Policy,
     rally_lengths_direct,
     rally_lengths_turns,
     random_goals,
@@ -16,10 +20,38 @@ from rallysim.eval.rally_eval import (
 from rallysim.eval.stats import summarise_rallies
 from rallysim.policies.resolve import high_level_policy, mono_policy, rally_low_level
 
+if TYPE_CHECKING:
+    from rallysim.train.progress import Heartbeat
+
+
+METHODS = ("HRL", "Random High-level", "Monolithic")
+
+
+def play_methods(high: HighLevel, low: LowLevel, mono: Policy, rallies: int, seed: int,
+                 rules: RallyConfig, beat: Heartbeat | None = None,
+                 label: str = "") -> dict[str, np.ndarray]:
+    """Rally lengths of HRL (``high`` goals for ``low``), Random High-level (goals ~ U[2, 6] m
+    for ``low``) and Monolithic (``mono`` for both players): ``rallies`` rallies each, played
+    from evaluation seed ``seed``. ``beat`` counts one per method played."""
+    plays = {
+        "HRL": lambda: rally_lengths_turns(high, low, rallies, seed, rules),
+        "Random High-level": lambda: rally_lengths_turns(random_goals(seed), low, rallies, seed,
+                                                         rules),
+        "Monolithic": lambda: rally_lengths_direct(mono, rallies, seed, rules),
+    }
+    lengths = {}
+    for method, play in plays.items():
+        if beat is not None:
+            beat.set_phase(f"{label}{method}", restart_rate=False)
+        lengths[method] = play()
+        if beat is not None:
+            beat.update(beat.done + 1)
+    return lengths
+
 
 def evaluate_methods(low: str = "pretrained", high: str = "pretrained", mono: str = "pretrained",
                      rallies: int = 100, seeds: int = 3, shuttle: str = "paper",
-                     cap: int = PAPER_CAP) -> dict[str, Any]:
+                     cap: int = PAPER_CAP, beat: Heartbeat | None = None) -> dict[str, Any]:
     """HRL (``high`` goals for ``low``), Random High-level (goals ~ U[2, 6] m for ``low``) and
     Monolithic (``mono``): ``rallies`` rallies for each of ``seeds`` evaluation seeds, each
     ending at a landing or at ``cap`` hits."""
@@ -27,16 +59,14 @@ def evaluate_methods(low: str = "pretrained", high: str = "pretrained", mono: st
         raise ValueError("rallies and seeds must be >= 1")
     rules = rules_for_cap(cap, shuttle)
     low_level = rally_low_level(low)
-    lengths: dict[str, list[np.ndarray]] = {"HRL": [], "Random High-level": [],
-                                            "Monolithic": []}
+    lengths: dict[str, list[np.ndarray]] = {m: [] for m in METHODS}
     mono_act = mono_policy(mono)
     for s in range(seeds):
         seed = 2_000_000 + 1000 * s
-        lengths["HRL"].append(rally_lengths_turns(high_level_policy(high, seed), low_level,
-                                                  rallies, seed, rules))
-        lengths["Random High-level"].append(
-            rally_lengths_turns(random_goals(seed), low_level, rallies, seed, rules))
-        lengths["Monolithic"].append(rally_lengths_direct(mono_act, rallies, seed, rules))
+        played = play_methods(high_level_policy(high, seed), low_level, mono_act, rallies, seed,
+                              rules, beat, f"seed {s} ")
+        for method, values in played.items():
+            lengths[method].append(values)
     return {
         "policies": {"low": low, "high": high, "mono": mono}, "shuttle": shuttle, "cap": cap,
         "rallies_per_seed": rallies, "seeds": seeds,

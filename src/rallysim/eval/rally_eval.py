@@ -18,7 +18,7 @@ from rallysim.envs.rally_task import RALLY_OBS_SIZE, RallyConfig, RallyTask
 from rallysim.envs.simple_obs import PLAYER_OBS_SIZE, TARGET_DEPTH_RANGE, normalise_depth
 from rallysim.envs.turn_task import LowLevel, TurnTask
 
-PAPER_CAP = 50  # hits: the paper's rally cap (SPEC §7)
+PAPER_CAP = RallyConfig.max_hits  # hits: the paper's rally cap (SPEC §7)
 MAX_CAP = 100_000
 DECISIONS_PER_HIT = 100  # the stall guard's allowance: 10 s of play per hit
 

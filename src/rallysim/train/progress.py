@@ -24,6 +24,12 @@ def say_stderr(text: str) -> None:
     sys.stderr.flush()
 
 
+def progress_lines() -> Say | None:
+    """Where progress lines go: stderr when it is not a terminal (a log, CI, a pipe); None on
+    a terminal, where a bar or the results themselves show progress."""
+    return None if sys.stderr.isatty() else say_stderr
+
+
 def format_eta(seconds: float) -> str:
     if not math.isfinite(seconds):  # no rate yet
         return "?"

@@ -133,13 +133,9 @@ def evaluate_seed(seed: int, out: Path, rallies: int, low_episodes: int,
                   cap: int = PAPER_CAP, beat: Heartbeat | None = None) -> dict[str, Any]:
     """Rally lengths of every method (rallies end at ``cap`` hits), and the low level's
     numbers, for one trained seed."""
+    from rallysim.eval.compare import play_methods
     from rallysim.eval.low_eval import evaluate_return
-    from rallysim.eval.rally_eval import (
-        rally_lengths_direct,
-        rally_lengths_turns,
-        random_goals,
-        rules_for_cap,
-    )
+    from rallysim.eval.rally_eval import rules_for_cap
     from rallysim.policies.mlp import load_policy
     from rallysim.policies.resolve import rally_low_level
     from rallysim.train.stages import goals_from_actions
@@ -150,20 +146,8 @@ def evaluate_seed(seed: int, out: Path, rallies: int, low_episodes: int,
     high = goals_from_actions(load_policy(runs / f"high_seed{seed}" / "policy"))
     mono = load_policy(runs / f"mono_seed{seed}" / "policy")
     eval_seed = 1_000_000 + 1000 * seed  # unseen by training (its envs use seed + i)
-    rules = rules_for_cap(cap)
-    plays = {
-        "HRL": lambda: rally_lengths_turns(high, low, rallies, eval_seed, rules),
-        "Random High-level": lambda: rally_lengths_turns(random_goals(eval_seed), low, rallies,
-                                                         eval_seed, rules),
-        "Monolithic": lambda: rally_lengths_direct(mono, rallies, eval_seed, rules),
-    }
-    lengths = {}
-    for method, play in plays.items():
-        if beat is not None:
-            beat.set_phase(f"seed {seed} {method}", restart_rate=False)
-        lengths[method] = play()
-        if beat is not None:
-            beat.update(beat.done + 1)
+    lengths = play_methods(high, low, mono, rallies, eval_seed, rules_for_cap(cap), beat,
+                           f"seed {seed} ")
     low_eval = evaluate_return(load_policy(low_prefix), episodes=low_episodes, seed=eval_seed)
     return {"lengths": {k: v.tolist() for k, v in lengths.items()},
             "low_level": low_eval.as_dict()}
@@ -344,6 +328,26 @@ def low_level_table(r: dict[str, Any]) -> list[str]:
     return lines
 
 
+def report_tables(r: dict[str, Any]) -> list[str]:
+    """Table VII, the per-seed means, where rallies are lost and the low level per seed, each
+    under its caption (the report's body; docs/results.md renders the same)."""
+    return [
+        *table_vii(r),
+        "",
+        "Per training seed (mean rally, 95 % CI over its rallies):",
+        "",
+        *per_seed_table(r),
+        "",
+        "Where rallies are lost (pooled, 95 % CIs):",
+        "",
+        *losses_table(r),
+        "",
+        "The low level per seed (deterministic policy, fresh serves):",
+        "",
+        *low_level_table(r),
+    ]
+
+
 def markdown_report(r: dict[str, Any]) -> str:
     b = r["budget"]
     cap = r.get("cap", PAPER_CAP)
@@ -361,19 +365,7 @@ def markdown_report(r: dict[str, Any]) -> str:
         f"{b['rallies']} evaluation rallies per seed (capped at {cap} hits). Wall time "
         f"{r['wall_s']['total'] / 60:.1f} min (training {r['wall_s']['training'] / 60:.1f} min).",
         "",
-        *table_vii(r),
-        "",
-        "Per training seed (mean rally, 95 % CI over its rallies):",
-        "",
-        *per_seed_table(r),
-        "",
-        "Where rallies are lost (pooled, %, 95 % CIs):",
-        "",
-        *losses_table(r),
-        "",
-        "The low level per seed:",
-        "",
-        *low_level_table(r),
+        *report_tables(r),
     ]
     low = r["low_level"]
     lines += [

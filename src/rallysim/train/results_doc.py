@@ -16,7 +16,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from rallysim.train.reproduce import losses_table, low_level_table, per_seed_table, table_vii
+from rallysim.train.reproduce import report_tables
 
 BLOCK = re.compile(r"(<!-- BEGIN GENERATED: (?P<name>[\w.-]+) -->\n)(?P<body>.*?)"
                    r"(<!-- END GENERATED: (?P=name) -->)", re.S)
@@ -30,19 +30,7 @@ def render(results: dict[str, Any]) -> str:
         f"{b['seeds']} training seeds, {b['rallies']} evaluation rallies per seed and method, "
         f"rallies capped at {cap} hits.",
         "",
-        *table_vii(results),
-        "",
-        "Per training seed (mean rally, 95 % CI over its rallies):",
-        "",
-        *per_seed_table(results),
-        "",
-        "Where rallies are lost (pooled, 95 % CIs):",
-        "",
-        *losses_table(results),
-        "",
-        "The low level per seed (deterministic policy, fresh serves):",
-        "",
-        *low_level_table(results),
+        *report_tables(results),
         "",
         "Checks: " + ", ".join(f"`{k}` **{'yes' if v else 'no'}**" for k, v in checks.items())
         + ".",

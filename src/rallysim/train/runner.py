@@ -34,7 +34,7 @@ import yaml
 from rallysim.train import checkpoint as ckpt
 from rallysim.train import stages
 from rallysim.train.config import TrainConfig
-from rallysim.train.progress import Heartbeat, Say, say_stderr
+from rallysim.train.progress import Heartbeat, Say, progress_lines, say_stderr
 
 
 class _Monitor:
@@ -142,9 +142,8 @@ def train_stage(config: TrainConfig, out_dir: str | Path, resume: bool = True,
     """Train ``config.stage`` into ``out_dir`` (resuming there if it holds a checkpoint) and
     return the learning curve with the final evaluation. ``progress``: a bar on a terminal,
     else progress lines on stderr; ``say``: where progress lines go instead (no bar)."""
-    tty = say is None and progress and sys.stderr.isatty()
-    if say is None and progress and not tty:
-        say = say_stderr
+    if say is None and progress:
+        say = progress_lines()  # None on a terminal: the bar
     beat = None if say is None else Heartbeat(f"[{config.stage} seed {config.seed}]",
                                              config.decisions, say)
     if beat is None:
