@@ -1,0 +1,230 @@
+"""Golden episodes: a hash of every value each env view returns over seeded steps.
+
+A behaviour-preserving change must leave every hash unchanged; a change that alters behaviour
+regenerates them in its own commit, with the reason (``python tests/golden.py --write``).
+Actions are drawn from a seeded generator over each view's action space, so the hashes cover
+misses, net touches, landings and episode ends as well as good play.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import sys
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+import rallysim  # noqa: F401  (registers the env ids)
+from rallysim.envs import humanlike_rally_v0, simple_rally_v0
+
+GOLDEN_FILE = Path(__file__).with_name("data") / "golden.json"
+SHUTTLES = ("paper", "paper-alg1", "aero")
+STEPS = 2000  # env steps per case (a vector view's steps count each of its envs)
+SEED = 7
+
+
+class Hasher:
+    """SHA-256 over values rounded to 1e-9, so the digest is one of values, not of dtypes."""
+
+    def __init__(self) -> None:
+        self._h = hashlib.sha256()
+
+    def add(self, value: Any) -> None:
+        if isinstance(value, dict):
+            for key in sorted(value):
+                self._h.update(str(key).encode())
+                self.add(value[key])
+            return
+        if isinstance(value, (list, tuple)):
+            for item in value:
+                self.add(item)
+            return
+        if isinstance(value, str):
+            self._h.update(value.encode())
+            return
+        arr = np.asarray(value)
+        if arr.dtype == object:
+            self.add(list(arr.ravel()))
+            return
+        if arr.dtype.kind in "fc":
+            arr = np.round(arr.astype(np.float64), 9)
+            arr = np.where(arr == 0.0, 0.0, arr)  # -0.0 and 0.0 hash alike
+        self._h.update(str(arr.shape).encode())
+        self._h.update(np.ascontiguousarray(arr).tobytes())
+
+    def hexdigest(self) -> str:
+        return self._h.hexdigest()[:16]
+
+
+def _gym_single(make: Callable[[], gym.Env]) -> str:
+    env = make()
+    rng = np.random.default_rng(SEED)
+    h = Hasher()
+    h.add(env.reset(seed=SEED))
+    for _ in range(STEPS):
+        action = rng.uniform(env.action_space.low, env.action_space.high)
+        out = env.step(action.astype(env.action_space.dtype))
+        h.add(out)
+        if out[2] or out[3]:
+            h.add(env.reset())
+    env.close()
+    return h.hexdigest()
+
+
+def _gym_vector(make: Callable[[], gym.vector.VectorEnv]) -> str:
+    env = make()
+    rng = np.random.default_rng(SEED)
+    h = Hasher()
+    h.add(env.reset(seed=SEED))
+    space = env.action_space
+    for _ in range(STEPS // env.num_envs):
+        h.add(env.step(rng.uniform(space.low, space.high).astype(space.dtype)))
+    env.close()
+    return h.hexdigest()
+
+
+def _parallel(make: Callable[[], Any]) -> str:
+    env = make()
+    rng = np.random.default_rng(SEED)
+    h = Hasher()
+    h.add(env.reset(seed=SEED))
+    for _ in range(STEPS):
+        if not env.agents:
+            h.add(env.reset())
+        actions = {a: rng.uniform(env.action_space(a).low, env.action_space(a).high)
+                   .astype(np.float32) for a in env.agents}
+        h.add(env.step(actions))
+        h.add(env.state())
+    env.close()
+    return h.hexdigest()
+
+
+def _aec(make: Callable[[], Any], steps: int) -> str:
+    env = make()
+    rng = np.random.default_rng(SEED)
+    h = Hasher()
+    env.reset(seed=SEED)
+    for _ in range(steps):
+        if not env.agents:
+            env.reset()
+        agent = env.agent_selection
+        h.add([agent, env.last()])
+        space = env.action_space(agent)
+        done = env.terminations[agent] or env.truncations[agent]
+        env.step(None if done else rng.uniform(space.low, space.high).astype(np.float32))
+        h.add([env.rewards, env.infos])
+    env.close()
+    return h.hexdigest()
+
+
+# The turn views play a whole turn (tens of decisions of the low level) per step; HUMAN-LIKE's
+# decisions cost several times SIMPLE's.
+TURN_STEPS = {"simple_rally_v0": 200, "humanlike_rally_v0": 60}
+
+
+def cases() -> Iterator[tuple[str, Callable[[], str]]]:
+    for s in SHUTTLES:
+        yield f"SimpleReturn-v0/single/{s}", lambda s=s: _gym_single(
+            lambda: gym.make("RallySim/SimpleReturn-v0", shuttle=s))
+        yield f"SimpleReturn-v0/vector/{s}", lambda s=s: _gym_vector(
+            lambda: gym.make_vec("RallySim/SimpleReturn-v0", num_envs=8, shuttle=s))
+        yield f"HumanLikeReturn-v0/single/{s}", lambda s=s: _gym_single(
+            lambda: gym.make("RallySim/HumanLikeReturn-v0", shuttle=s))
+        yield f"HumanLikeReturn-v0/vector/{s}", lambda s=s: _gym_vector(
+            lambda: gym.make_vec("RallySim/HumanLikeReturn-v0", num_envs=8, shuttle=s))
+        for name, mod in (("simple_rally_v0", simple_rally_v0),
+                          ("humanlike_rally_v0", humanlike_rally_v0)):
+            vec = (mod.SimpleRallyVectorEnv if mod is simple_rally_v0
+                   else mod.HumanLikeRallyVectorEnv)
+            turn_vec = (mod.SimpleRallyTurnVectorEnv if mod is simple_rally_v0
+                        else mod.HumanLikeRallyTurnVectorEnv)
+            turn_single = (mod.SimpleRallyTurnEnv if mod is simple_rally_v0
+                           else mod.HumanLikeRallyTurnEnv)
+            for mode in ("cooperative", "competitive"):
+                yield f"{name}/parallel/{s}/{mode}", lambda s=s, m=mod, mode=mode: _parallel(
+                    lambda: m.parallel_env(shuttle=s, mode=mode))
+                yield f"{name}/turn_aec/{s}/{mode}", lambda s=s, m=mod, mode=mode, name=name: _aec(
+                    lambda: m.turn_env(shuttle=s, mode=mode), TURN_STEPS[name])
+            yield f"{name}/vector/{s}", lambda s=s, v=vec: _gym_vector(
+                lambda: v(4, shuttle=s))
+            steps = TURN_STEPS[name]
+            yield f"{name}/turn_vector/{s}", lambda s=s, v=turn_vec, n=steps: _turn_vector(v, s, n)
+            yield f"{name}/turn_single/{s}", lambda s=s, t=turn_single, n=steps: _turn_single(
+                t, s, n)
+    yield "SimpleRallyTurn-v0/gym.make/paper", lambda: _turn_single(
+        lambda shuttle: gym.make("RallySim/SimpleRallyTurn-v0", shuttle=shuttle), "paper",
+        TURN_STEPS["simple_rally_v0"])
+    yield "pretrained/simple", _pretrained_simple
+    yield "pretrained/humanlike", _pretrained_humanlike
+
+
+def _turn_vector(cls: Callable[..., Any], shuttle: str, steps: int) -> str:
+    env = cls(4, shuttle=shuttle)
+    rng = np.random.default_rng(SEED)
+    h = Hasher()
+    h.add(env.reset(seed=SEED))
+    space = env.action_space
+    for _ in range(steps // 4):
+        h.add(env.step(rng.uniform(space.low, space.high).astype(space.dtype)))
+    env.close()
+    return h.hexdigest()
+
+
+def _turn_single(cls: Callable[..., Any], shuttle: str, steps: int) -> str:
+    env = cls(shuttle=shuttle)
+    rng = np.random.default_rng(SEED)
+    h = Hasher()
+    h.add(env.reset(seed=SEED))
+    for _ in range(steps):
+        space = env.action_space
+        out = env.step(rng.uniform(space.low, space.high).astype(space.dtype))
+        h.add(out)
+        if out[2] or out[3]:
+            h.add(env.reset())
+    env.close()
+    return h.hexdigest()
+
+
+def _pretrained_simple() -> str:
+    """The shipped SIMPLE policies' evaluation numbers: returns, HRL and Monolithic rallies."""
+    from rallysim.eval.low_eval import evaluate_return
+    from rallysim.eval.rally_eval import rally_lengths_direct, rally_lengths_turns
+    from rallysim.policies.resolve import (
+        high_level_policy,
+        low_level_policy,
+        mono_policy,
+        rally_low_level,
+    )
+
+    h = Hasher()
+    h.add(evaluate_return(low_level_policy("pretrained"), episodes=64, seed=99).as_dict())
+    h.add(rally_lengths_turns(high_level_policy("pretrained"), rally_low_level("pretrained"),
+                              16, seed=99))
+    h.add(rally_lengths_direct(mono_policy("pretrained"), 16, seed=99))
+    return h.hexdigest()
+
+
+def _pretrained_humanlike() -> str:
+    """The shipped HUMAN-LIKE pair's evaluation numbers (serves and 3-D rallies)."""
+    from rallysim.eval.humanlike_eval import evaluate_humanlike_player
+
+    out = evaluate_humanlike_player(episodes=32, rallies=4, seeds=1)
+    h = Hasher()
+    h.add([out["returns"], out["lengths"]])
+    return h.hexdigest()
+
+
+def compute(names: list[str] | None = None) -> dict[str, str]:
+    return {name: run() for name, run in cases() if names is None or name in names}
+
+
+if __name__ == "__main__":
+    if sys.argv[1:] != ["--write"]:
+        sys.exit("usage: python tests/golden.py --write   (regenerates tests/data/golden.json)")
+    GOLDEN_FILE.parent.mkdir(exist_ok=True)
+    GOLDEN_FILE.write_text(json.dumps(compute(), indent=1, sort_keys=True) + "\n")
+    print(f"wrote {GOLDEN_FILE}")
