@@ -12,6 +12,7 @@ import hashlib
 import json
 import sys
 from collections.abc import Callable, Iterator
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -60,54 +61,33 @@ class Hasher:
         return self._h.hexdigest()[:16]
 
 
-def _gym_single(make: Callable[[], gym.Env]) -> str:
-    env = make()
-    rng = np.random.default_rng(SEED)
-    h = Hasher()
-    h.add(env.reset(seed=SEED))
-    for _ in range(STEPS):
+def _steps_gym_single(env: gym.Env, steps: int, rng: np.random.Generator, h: Hasher) -> None:
+    for _ in range(steps):
         action = rng.uniform(env.action_space.low, env.action_space.high)
         out = env.step(action.astype(env.action_space.dtype))
         h.add(out)
         if out[2] or out[3]:
             h.add(env.reset())
-    env.close()
-    return h.hexdigest()
 
 
-def _gym_vector(make: Callable[[], gym.vector.VectorEnv]) -> str:
-    env = make()
-    rng = np.random.default_rng(SEED)
-    h = Hasher()
-    h.add(env.reset(seed=SEED))
+def _steps_gym_vector(env: gym.vector.VectorEnv, steps: int, rng: np.random.Generator,
+                      h: Hasher) -> None:
     space = env.action_space
-    for _ in range(STEPS // env.num_envs):
+    for _ in range(steps // env.num_envs):
         h.add(env.step(rng.uniform(space.low, space.high).astype(space.dtype)))
-    env.close()
-    return h.hexdigest()
 
 
-def _parallel(make: Callable[[], Any]) -> str:
-    env = make()
-    rng = np.random.default_rng(SEED)
-    h = Hasher()
-    h.add(env.reset(seed=SEED))
-    for _ in range(STEPS):
+def _steps_parallel(env: Any, steps: int, rng: np.random.Generator, h: Hasher) -> None:
+    for _ in range(steps):
         if not env.agents:
             h.add(env.reset())
         actions = {a: rng.uniform(env.action_space(a).low, env.action_space(a).high)
                    .astype(np.float32) for a in env.agents}
         h.add(env.step(actions))
         h.add(env.state())
-    env.close()
-    return h.hexdigest()
 
 
-def _aec(make: Callable[[], Any], steps: int) -> str:
-    env = make()
-    rng = np.random.default_rng(SEED)
-    h = Hasher()
-    env.reset(seed=SEED)
+def _steps_aec(env: Any, steps: int, rng: np.random.Generator, h: Hasher) -> None:
     for _ in range(steps):
         if not env.agents:
             env.reset()
@@ -117,8 +97,36 @@ def _aec(make: Callable[[], Any], steps: int) -> str:
         done = env.terminations[agent] or env.truncations[agent]
         env.step(None if done else rng.uniform(space.low, space.high).astype(np.float32))
         h.add([env.rewards, env.infos])
-    env.close()
-    return h.hexdigest()
+
+
+STEPPERS = {"gym": _steps_gym_single, "vector": _steps_gym_vector,
+            "parallel": _steps_parallel, "aec": _steps_aec}
+
+
+@dataclass(frozen=True)
+class View:
+    """One env view: how to make it, which API it speaks, how many steps its golden run takes."""
+
+    name: str
+    api: str  # a key of STEPPERS
+    make: Callable[[], Any]
+    steps: int = STEPS
+
+    def reset(self, env: Any, h: Hasher, seed: int | None = SEED) -> None:
+        out = env.reset(seed=seed)
+        if self.api != "aec":
+            h.add(out)
+
+    def play(self, env: Any, steps: int, rng: np.random.Generator, h: Hasher) -> None:
+        STEPPERS[self.api](env, steps, rng, h)
+
+    def digest(self) -> str:
+        env = self.make()
+        h = Hasher()
+        self.reset(env, h)
+        self.play(env, self.steps, np.random.default_rng(SEED), h)
+        env.close()
+        return h.hexdigest()
 
 
 # The turn views play a whole turn (tens of decisions of the low level) per step; HUMAN-LIKE's
@@ -126,67 +134,39 @@ def _aec(make: Callable[[], Any], steps: int) -> str:
 TURN_STEPS = {"simple_rally_v0": 200, "humanlike_rally_v0": 60}
 
 
-def cases() -> Iterator[tuple[str, Callable[[], str]]]:
+def views() -> Iterator[View]:
+    """Every env id and view, for each shuttle model (rallies: both modes where they differ)."""
     for s in SHUTTLES:
-        yield f"SimpleReturn-v0/single/{s}", lambda s=s: _gym_single(
-            lambda: gym.make("RallySim/SimpleReturn-v0", shuttle=s))
-        yield f"SimpleReturn-v0/vector/{s}", lambda s=s: _gym_vector(
-            lambda: gym.make_vec("RallySim/SimpleReturn-v0", num_envs=8, shuttle=s))
-        yield f"HumanLikeReturn-v0/single/{s}", lambda s=s: _gym_single(
-            lambda: gym.make("RallySim/HumanLikeReturn-v0", shuttle=s))
-        yield f"HumanLikeReturn-v0/vector/{s}", lambda s=s: _gym_vector(
-            lambda: gym.make_vec("RallySim/HumanLikeReturn-v0", num_envs=8, shuttle=s))
-        for name, mod in (("simple_rally_v0", simple_rally_v0),
-                          ("humanlike_rally_v0", humanlike_rally_v0)):
-            vec = (mod.SimpleRallyVectorEnv if mod is simple_rally_v0
-                   else mod.HumanLikeRallyVectorEnv)
-            turn_vec = (mod.SimpleRallyTurnVectorEnv if mod is simple_rally_v0
-                        else mod.HumanLikeRallyTurnVectorEnv)
-            turn_single = (mod.SimpleRallyTurnEnv if mod is simple_rally_v0
-                           else mod.HumanLikeRallyTurnEnv)
+        yield View(f"SimpleReturn-v0/single/{s}", "gym",
+                   lambda s=s: gym.make("RallySim/SimpleReturn-v0", shuttle=s))
+        yield View(f"SimpleReturn-v0/vector/{s}", "vector",
+                   lambda s=s: gym.make_vec("RallySim/SimpleReturn-v0", num_envs=8, shuttle=s))
+        yield View(f"HumanLikeReturn-v0/single/{s}", "gym",
+                   lambda s=s: gym.make("RallySim/HumanLikeReturn-v0", shuttle=s))
+        yield View(f"HumanLikeReturn-v0/vector/{s}", "vector",
+                   lambda s=s: gym.make_vec("RallySim/HumanLikeReturn-v0", num_envs=8,
+                                            shuttle=s))
+        for name, mod, vec, turn_vec, turn_single in (
+                ("simple_rally_v0", simple_rally_v0, simple_rally_v0.SimpleRallyVectorEnv,
+                 simple_rally_v0.SimpleRallyTurnVectorEnv, simple_rally_v0.SimpleRallyTurnEnv),
+                ("humanlike_rally_v0", humanlike_rally_v0,
+                 humanlike_rally_v0.HumanLikeRallyVectorEnv,
+                 humanlike_rally_v0.HumanLikeRallyTurnVectorEnv,
+                 humanlike_rally_v0.HumanLikeRallyTurnEnv)):
+            turns = TURN_STEPS[name]
             for mode in ("cooperative", "competitive"):
-                yield f"{name}/parallel/{s}/{mode}", lambda s=s, m=mod, mode=mode: _parallel(
-                    lambda: m.parallel_env(shuttle=s, mode=mode))
-                yield f"{name}/turn_aec/{s}/{mode}", lambda s=s, m=mod, mode=mode, name=name: _aec(
-                    lambda: m.turn_env(shuttle=s, mode=mode), TURN_STEPS[name])
-            yield f"{name}/vector/{s}", lambda s=s, v=vec: _gym_vector(
-                lambda: v(4, shuttle=s))
-            steps = TURN_STEPS[name]
-            yield f"{name}/turn_vector/{s}", lambda s=s, v=turn_vec, n=steps: _turn_vector(v, s, n)
-            yield f"{name}/turn_single/{s}", lambda s=s, t=turn_single, n=steps: _turn_single(
-                t, s, n)
-    yield "SimpleRallyTurn-v0/gym.make/paper", lambda: _turn_single(
-        lambda shuttle: gym.make("RallySim/SimpleRallyTurn-v0", shuttle=shuttle), "paper",
-        TURN_STEPS["simple_rally_v0"])
-    yield "pretrained/simple", _pretrained_simple
-    yield "pretrained/humanlike", _pretrained_humanlike
-
-
-def _turn_vector(cls: Callable[..., Any], shuttle: str, steps: int) -> str:
-    env = cls(4, shuttle=shuttle)
-    rng = np.random.default_rng(SEED)
-    h = Hasher()
-    h.add(env.reset(seed=SEED))
-    space = env.action_space
-    for _ in range(steps // 4):
-        h.add(env.step(rng.uniform(space.low, space.high).astype(space.dtype)))
-    env.close()
-    return h.hexdigest()
-
-
-def _turn_single(cls: Callable[..., Any], shuttle: str, steps: int) -> str:
-    env = cls(shuttle=shuttle)
-    rng = np.random.default_rng(SEED)
-    h = Hasher()
-    h.add(env.reset(seed=SEED))
-    for _ in range(steps):
-        space = env.action_space
-        out = env.step(rng.uniform(space.low, space.high).astype(space.dtype))
-        h.add(out)
-        if out[2] or out[3]:
-            h.add(env.reset())
-    env.close()
-    return h.hexdigest()
+                yield View(f"{name}/parallel/{s}/{mode}", "parallel",
+                           lambda s=s, m=mod, mode=mode: m.parallel_env(shuttle=s, mode=mode))
+                yield View(f"{name}/turn_aec/{s}/{mode}", "aec",
+                           lambda s=s, m=mod, mode=mode: m.turn_env(shuttle=s, mode=mode), turns)
+            yield View(f"{name}/vector/{s}", "vector", lambda s=s, v=vec: v(4, shuttle=s))
+            yield View(f"{name}/turn_vector/{s}", "vector",
+                       lambda s=s, v=turn_vec: v(4, shuttle=s), turns)
+            yield View(f"{name}/turn_single/{s}", "gym",
+                       lambda s=s, t=turn_single: t(shuttle=s), turns)
+    yield View("SimpleRallyTurn-v0/gym.make/paper", "gym",
+               lambda: gym.make("RallySim/SimpleRallyTurn-v0", shuttle="paper"),
+               TURN_STEPS["simple_rally_v0"])
 
 
 def _pretrained_simple() -> str:
@@ -216,6 +196,13 @@ def _pretrained_humanlike() -> str:
     h = Hasher()
     h.add([out["returns"], out["lengths"]])
     return h.hexdigest()
+
+
+def cases() -> Iterator[tuple[str, Callable[[], str]]]:
+    for view in views():
+        yield view.name, view.digest
+    yield "pretrained/simple", _pretrained_simple
+    yield "pretrained/humanlike", _pretrained_humanlike
 
 
 def compute(names: list[str] | None = None) -> dict[str, str]:

@@ -317,7 +317,7 @@ def test_bad_input_raises_and_leaves_state_untouched():
     g = env.task.game
     before = (g.shuttle.pos.copy(), env.task.bodies.qpos.copy(), env.task.elapsed.copy())
     for bad, word in [(np.full((2, 15), np.nan), "NaN"), (np.zeros((2, 3)), "shape"),
-                      (np.zeros(15), "shape"), ("swing", "numeric")]:
+                      (np.zeros(15), "shape"), ("swing", "real numbers")]:
         with pytest.raises(ValueError, match=word):
             env.step(bad)
     assert np.array_equal(before[0], g.shuttle.pos)

@@ -91,7 +91,7 @@ def test_vector_views_and_bad_goals():
     assert obs.shape == (4, 86)
     _, reward, _, _, info = venv.step(np.zeros((4, 3)))
     assert np.allclose(reward, 0.2) and (info["decisions"] > 1).all()
-    with pytest.raises(ValueError, match="one goal per rally"):
+    with pytest.raises(ValueError, match="goals must have shape"):
         venv.step(np.zeros((4, 1)))
     with pytest.raises(ValueError, match="finite"):
         venv.step(np.full((4, 3), np.nan))

@@ -257,3 +257,24 @@ def test_vector_views():
     single = gym.make("RallySim/SimpleRallyTurn-v0")
     obs, _ = single.reset(seed=0)
     assert obs.shape == (20,)
+
+
+def test_random_low_level_is_reseeded_by_reset():
+    """``low_level="random"`` restarts its stream with ``reset(seed)``: the same seed replays
+    the same turn episode (it did not before: the low level kept drawing where it was)."""
+    from rallysim.envs import simple_rally_v0
+
+    def episode(env) -> list[float]:
+        env.reset(seed=21)
+        out = []
+        for goal in (3.0, 5.0, 4.0, 2.5):
+            agent = env.agent_selection
+            if env.terminations[agent] or env.truncations[agent]:
+                break
+            env.step(np.array([goal]))
+            out += [float(v) for a in env.agents for v in env.observe(a)]
+        return out
+
+    env = simple_rally_v0.turn_env(low_level="random")
+    first = episode(env)
+    assert episode(env) == first and len(first) >= 1

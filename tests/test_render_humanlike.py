@@ -229,8 +229,9 @@ def test_human_mode_sends_the_arrow_to_the_viewer(monkeypatch):
     import mujoco.viewer
 
     class FakeViewer:
-        def __init__(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
+        def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, **options) -> None:
             self.user_scn = mujoco.MjvScene(model, maxgeom=100)
+            self.cam, self.viewport = mujoco.MjvCamera(), None
             self.synced = 0
 
         def lock(self) -> contextlib.AbstractContextManager:

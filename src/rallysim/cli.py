@@ -1,15 +1,48 @@
 """The ``rallysim`` command line: ``demo``, ``train``, ``reproduce``, ``evaluate``, ``render``,
-``play``."""
+``play``.
+
+A user error (a bad option or value, a path that cannot be read or written, a bad setting) is
+one line on stderr, ``rallysim COMMAND: error: ...``, and exit status 2; paths are checked
+before any long work. ``RALLYSIM_TRACEBACK=1`` shows the traceback instead."""
 
 from __future__ import annotations
 
 import argparse
 import contextlib
+import os
 import sys
+import tempfile
 import time
+from collections.abc import Callable
 from pathlib import Path
+from typing import NoReturn
 
 import numpy as np
+
+# TrainConfig's bound (train/config.py SEED_MAX; not imported: it needs the train extra's yaml)
+SEED_MAX = 2**31 - 1
+# render --size: every frame is held in memory (4096x4096 RGB is 48 MiB) and OpenGL caps
+# its render buffers; beyond this a typo like 100000x100000 would fail deep in the renderer
+MAX_SIDE = 4096
+
+
+class UsageError(Exception):
+    """A mistake in the command line or in what it names. ``main`` prints it as one line and
+    returns 2 (the usage-error convention): there is nothing to debug, so no traceback."""
+
+    def __init__(self, message: str, prog: str | None = None, help_hint: bool = False) -> None:
+        super().__init__(message)
+        self.prog = prog  # the (sub)command whose usage was wrong; None: the running command
+        self.help_hint = help_hint
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse, with its errors raised as ``UsageError`` instead of a usage block printed
+    before the message: every user error then leaves through ``main`` the same way.
+    Subparsers are built from this class too (``add_subparsers`` uses the parent's type)."""
+
+    def error(self, message: str) -> NoReturn:
+        raise UsageError(message, prog=self.prog, help_hint=True)
 
 
 def _demo(args: argparse.Namespace) -> int:
@@ -38,8 +71,9 @@ def _size(text: str) -> tuple[int, int]:
         w, h = (int(v) for v in text.lower().split("x"))
     except ValueError:
         raise argparse.ArgumentTypeError(f"size must look like 640x360, got {text!r}") from None
-    if w < 16 or h < 16:
-        raise argparse.ArgumentTypeError("size must be at least 16x16")
+    if not (16 <= w <= MAX_SIDE and 16 <= h <= MAX_SIDE):
+        raise argparse.ArgumentTypeError(f"size must be between 16x16 and {MAX_SIDE}x{MAX_SIDE}, "
+                                         f"got {w}x{h}")
     return w, h
 
 
@@ -60,6 +94,102 @@ def _integer_at_least(low: int, high: int | None = None):
 _non_negative = _integer_at_least(0)
 _positive = _integer_at_least(1)
 _cap = _integer_at_least(1, 100_000)
+_seed = _integer_at_least(0, SEED_MAX)
+
+
+def _os_message(err: OSError) -> str:
+    """``'PATH': Reason`` for an OSError from the file system, else its own message."""
+    if err.strerror and err.filename is not None:
+        return f"{str(err.filename)!r}: {err.strerror}"
+    return str(err) or type(err).__name__
+
+
+def _nearest_existing(path: Path) -> Path:
+    """``path`` or its nearest ancestor that exists (the folder a creation would start in)."""
+    for candidate in (path, *path.parents):
+        if candidate.exists():
+            return candidate
+    return Path(".")  # only a relative path gets here; its top folder is the current one
+
+
+def _cannot_create(path: Path, start: Path) -> str | None:
+    """Why ``path`` cannot be created from ``start``, its nearest existing ancestor."""
+    if not start.is_dir():
+        return f"cannot create {str(path)!r}: {str(start)!r} is not a directory"
+    try:
+        name_max = os.pathconf(start, "PC_NAME_MAX")
+    except (OSError, ValueError):
+        name_max = 255
+    for part in path.relative_to(start).parts:
+        if len(os.fsencode(part)) > name_max:
+            return f"cannot create {str(path)!r}: the name {part[:20]!r}... is too long"
+    return _cannot_write_in(start)
+
+
+def _cannot_write_in(folder: Path) -> str | None:
+    # create (and drop) a file rather than ask os.access: as root, access() says yes to a
+    # read-only mode, and it does not see a read-only or virtual file system (/proc)
+    try:
+        with tempfile.TemporaryFile(dir=folder):
+            pass
+    except OSError as err:
+        return f"cannot write in {str(folder)!r}: {err.strerror or err}"
+    return None
+
+
+def path_problem(text: str, want: str) -> str | None:
+    """What stops ``text`` from serving as ``want``, or None: ``"dir"``, an output folder
+    (created with its parents); ``"file"``, an output file (likewise); ``"input"``, a file to
+    read. Checked before any work, so a bad path fails in a second, not after an evaluation."""
+    if not text:
+        return "the path is empty"
+    if "\0" in text:
+        return "the path contains a NUL character"
+    if want == "file" and text.endswith(("/", os.sep)):
+        return f"{text!r} ends with '/' and so names a directory, not a file"
+    path = Path(text)
+    try:
+        if want == "input":
+            if path.is_dir():
+                return f"{text!r} is a directory, not a file"
+            if not path.exists():
+                start = _nearest_existing(path.parent)
+                if not start.is_dir():
+                    return f"{text!r} does not exist: {str(start)!r} is not a directory"
+                return f"{text!r} does not exist"
+            return None if os.access(path, os.R_OK) else f"cannot read {text!r}: permission denied"
+        if os.path.islink(path) and not path.exists():
+            return f"{text!r} is a broken symbolic link"
+        if path.exists():
+            if want == "dir":
+                return (f"{text!r} is not a directory" if not path.is_dir()
+                        else _cannot_write_in(path))
+            if path.is_dir():
+                return f"{text!r} is a directory, not a file"
+            return None if os.access(path, os.W_OK) else f"cannot write {text!r}: permission denied"
+        return _cannot_create(path, _nearest_existing(path.parent))
+    except OSError as err:  # e.g. a name too long for the system, a loop of links
+        return _os_message(err)
+
+
+def _path_arg(want: str) -> Callable[[str], str]:
+    def parse(text: str) -> str:
+        problem = path_problem(text, want)
+        if problem:
+            raise argparse.ArgumentTypeError(problem)
+        return text
+
+    return parse
+
+
+_out_dir, _out_file, _in_file = _path_arg("dir"), _path_arg("file"), _path_arg("input")
+
+
+def _require(path: Path, want: str) -> None:
+    """``path_problem`` for a path the command builds (a default, a file inside ``--out``)."""
+    problem = path_problem(str(path), want)
+    if problem:
+        raise UsageError(problem)
 
 
 def _render(args: argparse.Namespace) -> int:
@@ -69,29 +199,37 @@ def _render(args: argparse.Namespace) -> int:
     from rallysim.render import record_low_level, record_rally, write_strip, write_video
 
     out = Path(args.out)
+    stem = out / f"{args.env}_{Path(args.policy).name}"
+    outputs = (stem.with_suffix(".mp4"), stem.with_suffix(".gif"),
+               stem.with_name(stem.name + "_strip.png"))
+    for path in outputs:
+        _require(path, "file")  # before the rendering, which takes minutes
+    # the policies first: a bad name fails before the folder is made or anything announced
+    if args.env == "low":
+        low = low_level_policy(args.policy, args.seed)
+    else:
+        high, rally_low = high_level_policy(args.high, args.seed), rally_low_level(args.policy,
+                                                                                   args.seed)
     out.mkdir(parents=True, exist_ok=True)
     width, height = args.size
     camera = args.camera
     print(f"rendering {args.episodes} {args.env} episode(s) with policy {args.policy!r} ...",
           flush=True)
     if args.env == "low":
-        frames = record_low_level(args.episodes, low_level_policy(args.policy, args.seed),
-                                  args.seed, args.shuttle, width, height, camera)
+        frames = record_low_level(args.episodes, low, args.seed, args.shuttle, width, height,
+                                  camera)
     else:
         config = RallyConfig(shuttle=args.shuttle, mode=args.mode)
-        frames = record_rally(args.episodes, high_level_policy(args.high, args.seed),
-                              rally_low_level(args.policy, args.seed), args.seed, config,
-                              width, height, camera)
-    stem = out / f"{args.env}_{Path(args.policy).name}"
-    write_video(frames, stem.with_suffix(".mp4"), fps=10)
-    write_video(frames[:: args.gif_every], stem.with_suffix(".gif"),
-                fps=10 / args.gif_every)
+        frames = record_rally(args.episodes, high, rally_low, args.seed, config, width, height,
+                              camera)
+    mp4, gif, strip = outputs
+    write_video(frames, mp4, fps=10)
+    write_video(frames[:: args.gif_every], gif, fps=10 / args.gif_every)
     picks = np.linspace(0, len(frames) - 1, args.stills).round().astype(int)
-    write_strip([frames[i] for i in picks], stem.with_name(stem.name + "_strip.png"),
-                columns=min(4, args.stills))
-    for suffix in (".mp4", ".gif"):
-        print(f"  wrote {stem.with_suffix(suffix)}")
-    print(f"  wrote {stem.with_name(stem.name + '_strip.png')}  ({len(frames)} frames)")
+    write_strip([frames[i] for i in picks], strip, columns=min(4, args.stills))
+    print(f"  wrote {mp4}")
+    print(f"  wrote {gif}")
+    print(f"  wrote {strip}  ({len(frames)} frames)")
     return 0
 
 
@@ -109,47 +247,43 @@ def _play(args: argparse.Namespace) -> int:
     human = None if args.human == "none" else int(args.human)
     lengths = play(rally_low_level(args.policy, args.seed), high_level_policy(args.high, args.seed),
                    human=human, config=RallyConfig(shuttle=args.shuttle, mode=args.mode),
-                   seed=args.seed)
+                   seed=args.seed, seconds=args.seconds)
     if lengths:
         print(f"rallies played: {len(lengths)}, mean length {np.mean(lengths):.1f}")
     return 0
 
 
-def _missing_train_extra(command: str) -> bool:
-    """Say so (and return True) when the packages of the ``train`` extra are not installed."""
+def _require_train_extra() -> None:
+    """Refuse (UsageError) when the packages of the ``train`` extra are not installed."""
     import importlib.util
 
     missing = [m for m in ("torch", "stable_baselines3", "yaml", "tqdm")
                if importlib.util.find_spec(m) is None]
     if missing:
-        print(f"rallysim {command} needs the train extra (missing: {', '.join(missing)}): "
-              "pip install torch==2.13.0 && pip install 'rallysim[train]'", file=sys.stderr)
-    return bool(missing)
+        raise UsageError(f"the train extra is not installed (missing: {', '.join(missing)}): "
+                         "pip install torch==2.13.0 && pip install 'rallysim[train]'")
 
 
-def _missing_ray_extra() -> bool:
-    """Say so (and return True) when the packages of the ``ray`` extra are not installed."""
+def _require_ray_extra() -> None:
+    """Refuse (UsageError) when the packages of the ``ray`` extra are not installed."""
     from rallysim.rllib import INSTALL_HINT, missing_packages
 
     missing = missing_packages()
     if missing:
-        print(f"rallysim train --backend rllib needs the ray extra (missing: "
-              f"{', '.join(missing)}): install rallysim[ray], e.g. {INSTALL_HINT}",
-              file=sys.stderr)
-    return bool(missing)
+        raise UsageError(f"--backend rllib needs the ray extra (missing: {', '.join(missing)}):"
+                         f" install rallysim[ray], e.g. {INSTALL_HINT}")
 
 
 def _train(args: argparse.Namespace) -> int:
     """Train one stage (low, high, mono) with Stable-Baselines3 PPO (resumable) or, with
     ``--backend rllib``, with RLlib PPO on a Ray cluster."""
     rllib = args.backend == "rllib"
-    if rllib and _missing_ray_extra():
-        return 2
-    if not rllib and _missing_train_extra("train"):
-        return 2
     if not rllib and (args.address or args.env_runners is not None):
-        print("--address and --env-runners need --backend rllib", file=sys.stderr)
-        return 2
+        raise UsageError("--address and --env-runners need --backend rllib")
+    if rllib:
+        _require_ray_extra()
+    else:
+        _require_train_extra()
     from rallysim.train.config import load_config, parse_overrides
 
     overrides = parse_overrides(args.set)
@@ -160,6 +294,7 @@ def _train(args: argparse.Namespace) -> int:
     config = load_config(args.stage, args.config, overrides)
     tag = f"{args.stage}_humanlike" if config.env == "humanlike" else args.stage
     out = Path(args.out or f"runs/{tag}_seed{config.seed}")
+    _require(out, "dir")  # the default folder is only known now
     if rllib:
         from rallysim.rllib.runner import train_stage_rllib
 
@@ -179,10 +314,11 @@ def _train(args: argparse.Namespace) -> int:
 
 def _reproduce(args: argparse.Namespace) -> int:
     """Train every stage and baseline on the chosen budget and write the Table VII report."""
-    if _missing_train_extra("reproduce"):
-        return 2
+    _require_train_extra()
     from rallysim.train.reproduce import BUDGETS, result_names, run_reproduce
 
+    for name in result_names(args.cap).values():
+        _require(Path(args.out) / name, "file")  # written after all the training
     results = run_reproduce(BUDGETS[args.budget], Path(args.out), workers=args.workers,
                             seeds=args.seeds, cap=args.cap)
     print((Path(args.out) / result_names(args.cap)["report"]).read_text())
@@ -212,8 +348,7 @@ def _evaluate(args: argparse.Namespace) -> int:
     import json
 
     if args.env == "humanlike" and args.cap != 50:
-        print("rallysim evaluate: error: --cap applies to SIMPLE rallies only", file=sys.stderr)
-        return 2
+        raise UsageError("--cap applies to SIMPLE rallies only")
     if args.env == "humanlike":
         from rallysim.eval.humanlike_eval import evaluate_humanlike_player
 
@@ -250,16 +385,17 @@ def _evaluate(args: argparse.Namespace) -> int:
 
 def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--shuttle", default="paper", choices=("paper", "paper-alg1", "aero"))
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=_seed, default=0)
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="rallysim", description=__doc__)
+    parser = _Parser(prog="rallysim", description=__doc__,
+                     formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = parser.add_subparsers(dest="command", required=True)
 
     demo = sub.add_parser("demo", help="play the low-level task and print what happened")
-    demo.add_argument("--episodes", type=int, default=2000)
-    demo.add_argument("--envs", type=int, default=256)
+    demo.add_argument("--episodes", type=_positive, default=2000)
+    demo.add_argument("--envs", type=_positive, default=256)
     demo.add_argument("--policy", default="scripted",
                       help="scripted, random, pretrained or a policy path prefix")
     _common(demo)
@@ -267,17 +403,18 @@ def build_parser() -> argparse.ArgumentParser:
 
     train = sub.add_parser("train", help="train a stage with PPO (resumes an interrupted run)")
     train.add_argument("stage", choices=("low", "high", "mono"))
-    train.add_argument("--config", help="a YAML file of settings over the stage's defaults")
+    train.add_argument("--config", type=_in_file,
+                       help="a YAML file of settings over the stage's defaults")
     train.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",
                        help="settings over the config, e.g. n_envs=128 net_arch=[64,64]")
     train.add_argument("--decisions", type=int, help="budget in steps (turns for high)")
-    train.add_argument("--seed", type=int)
+    train.add_argument("--seed", type=_seed)
     train.add_argument("--shuttle", choices=("paper", "paper-alg1", "aero"))
     train.add_argument("--env", choices=("simple", "humanlike"),
                        help="the player of the low stage (default simple)")
     train.add_argument("--low-policy", dest="low_policy",
                        help="high stage: frozen low level (path prefix, pretrained, scripted)")
-    train.add_argument("--out", help="run folder (default runs/STAGE_seedN)")
+    train.add_argument("--out", type=_out_dir, help="run folder (default runs/STAGE_seedN)")
     train.add_argument("--restart", action="store_true", help="ignore existing checkpoints")
     train.add_argument("--quiet", action="store_true", help="no progress bar")
     train.add_argument("--backend", choices=("sb3", "rllib"), default="sb3",
@@ -295,7 +432,7 @@ def build_parser() -> argparse.ArgumentParser:
                        default="default",
                        help="default: ~15 min on 2 cores; quick: a look in ~5 min; scratch: "
                             "the default with the low level trained from scratch")
-    repro.add_argument("--out", default="results")
+    repro.add_argument("--out", type=_out_dir, default="results")
     repro.add_argument("--workers", type=_positive, default=3, help="seeds trained at once")
     repro.add_argument("--seeds", type=_positive,
                        help="training seeds (default: the budget's, 3; the seed-spread study "
@@ -316,14 +453,16 @@ def build_parser() -> argparse.ArgumentParser:
                     help="low level: path prefix or pretrained (humanlike: or scripted)")
     ev.add_argument("--high", help="high level: path prefix or pretrained (the default); "
                                    "humanlike: also centre or random")
-    ev.add_argument("--episodes", type=int, default=500, help="humanlike: serves returned")
+    ev.add_argument("--episodes", type=_positive, default=500,
+                    help="humanlike: serves returned")
     ev.add_argument("--mono", default="pretrained", help="Monolithic: path prefix or pretrained")
-    ev.add_argument("--rallies", type=int, default=100, help="rallies per seed and method")
-    ev.add_argument("--seeds", type=int, default=3, help="evaluation seeds")
+    ev.add_argument("--rallies", type=_positive, default=100,
+                    help="rallies per seed and method")
+    ev.add_argument("--seeds", type=_positive, default=3, help="evaluation seeds")
     ev.add_argument("--cap", type=_cap, default=50,
                     help="SIMPLE rallies end at this many hits (default 50, the paper's; up "
                          "to 100000)")
-    ev.add_argument("--json", help="write every number here")
+    ev.add_argument("--json", type=_out_file, help="write every number here")
     ev.add_argument("--shuttle", default="paper", choices=("paper", "paper-alg1", "aero"))
     ev.set_defaults(run=_evaluate)
 
@@ -334,12 +473,13 @@ def build_parser() -> argparse.ArgumentParser:
     render.add_argument("--high", default="random",
                         help="rally goals: random, fixed:D, pretrained or a policy path prefix")
     render.add_argument("--mode", choices=("cooperative", "competitive"), default="cooperative")
-    render.add_argument("--episodes", type=int, default=2)
+    render.add_argument("--episodes", type=_positive, default=2)
     render.add_argument("--camera", choices=("side", "three_quarter"), default="side")
     render.add_argument("--size", type=_size, default=(640, 360), help="WIDTHxHEIGHT")
-    render.add_argument("--stills", type=int, default=8, help="frames in the strip")
-    render.add_argument("--gif-every", type=int, default=2, help="keep every k-th frame in the GIF")
-    render.add_argument("--out", default="results/videos")
+    render.add_argument("--stills", type=_positive, default=8, help="frames in the strip")
+    render.add_argument("--gif-every", type=_positive, default=2,
+                        help="keep every k-th frame in the GIF")
+    render.add_argument("--out", type=_out_dir, default="results/videos")
     _common(render)
     render.set_defaults(run=_render)
 
@@ -348,21 +488,37 @@ def build_parser() -> argparse.ArgumentParser:
     play.add_argument("--policy", default="scripted", help="the computer's low level")
     play.add_argument("--high", default="random", help="the computer's goals")
     play.add_argument("--mode", choices=("cooperative", "competitive"), default="competitive")
+    play.add_argument("--seconds", type=float, default=None,
+                      help="close the window after this many seconds (default: when you close it)")
     _common(play)
     play.set_defaults(run=_play)
     return parser
 
 
+def _error_line(prog: str, message: str) -> int:
+    # one line whatever the message holds (PyYAML's and numpy's span several)
+    print(f"{prog}: error: {' '.join(message.split())}", file=sys.stderr)
+    return 2
+
+
 def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
-    if getattr(args, "episodes", 1) < 1 or getattr(args, "stills", 1) < 1:
-        print("--episodes and --stills must be >= 1", file=sys.stderr)
-        return 2
+    """Run the command line; a user error is one line on stderr and the return value 2."""
+    parser = build_parser()
+    prog = parser.prog
     try:
+        args = parser.parse_args(argv)
+        prog = f"{parser.prog} {args.command}"
         return args.run(args)
-    except (ValueError, FileNotFoundError) as err:  # bad input: say what, no traceback
-        print(f"rallysim {args.command}: error: {err}", file=sys.stderr)
-        return 2
+    except (UsageError, ValueError, OSError) as err:
+        if os.environ.get("RALLYSIM_TRACEBACK"):
+            raise  # for a developer who wants to see where it came from
+        if isinstance(err, UsageError):
+            hint = f" (see '{err.prog} --help')" if err.help_hint else ""
+            return _error_line(err.prog or prog, f"{err}{hint}")
+        # ValueError: a bad value found past the parser (a setting, a policy name);
+        # OSError: a file the user named that could not be read or written after all
+        message = _os_message(err) if isinstance(err, OSError) else str(err)
+        return _error_line(prog, message or type(err).__name__)
 
 
 if __name__ == "__main__":

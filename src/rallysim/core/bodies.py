@@ -45,7 +45,28 @@ class PlayerBodies(Protocol):
     def restore(self, envs: np.ndarray, saved: Any) -> None: ...
 
 
-class SimpleBodies:
+class MjDataViews:
+    """A batch of bodies that keeps NumPy views into its ``MjData`` for speed.
+
+    A copy (``copy.deepcopy``, ``pickle``) copies ``data`` but would turn each view into a
+    detached array, so writes would no longer move the bodies. The views named in ``_views`` are
+    left out of the copied state and bound again to the copy's own ``data`` by ``_bind_views``.
+    """
+
+    _views: tuple[str, ...] = ()
+
+    def _bind_views(self) -> None:
+        raise NotImplementedError
+
+    def __getstate__(self) -> dict[str, Any]:
+        return {k: v for k, v in self.__dict__.items() if k not in self._views}
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        self._bind_views()
+
+
+class SimpleBodies(MjDataViews):
     """N x P SIMPLE players (SPEC §5) in one MuJoCo model.
 
     Per physics step the arm's drive is a stiff position servo solved implicitly (it would reach
@@ -66,12 +87,8 @@ class SimpleBodies:
         self.n_envs, self.n_players, self.dt = n_envs, n_players, dt
         self.model = build_simple_world(n_envs, n_players, dt)
         self.data = mujoco.MjData(self.model)
+        self._bind_views()
         shape = (n_envs, n_players)
-        # Views into MuJoCo's memory: writing them moves the bodies.
-        self.theta = self.data.qpos.reshape(shape)
-        self.omega = self.data.qvel.reshape(shape)
-        self.torque = self.data.ctrl.reshape(shape)
-        self.mocap = self.data.mocap_pos.reshape((*shape, 3))
         self.forward = np.broadcast_to(FORWARD[:n_players], shape).copy()
 
         geo = player_geometry()
@@ -93,6 +110,16 @@ class SimpleBodies:
         self._theta0 = np.zeros(shape)  # arm angles at the start of the last physics step
         self._sync_mocap()
         mujoco.mj_forward(self.model, self.data)
+
+    _views = ("theta", "omega", "torque", "mocap")
+
+    def _bind_views(self) -> None:
+        """Views into MuJoCo's memory: writing them moves the bodies."""
+        shape = (self.n_envs, self.n_players)
+        self.theta = self.data.qpos.reshape(shape)
+        self.omega = self.data.qvel.reshape(shape)
+        self.torque = self.data.ctrl.reshape(shape)
+        self.mocap = self.data.mocap_pos.reshape((*shape, 3))
 
     # -- state ---------------------------------------------------------------------------------
     def reset(self, envs: np.ndarray, base_x: np.ndarray, theta: np.ndarray | float = 0.0) -> None:

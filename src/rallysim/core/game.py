@@ -20,6 +20,20 @@ PHYSICS_DT = 0.02
 PHYSICS_STEPS_PER_DECISION = 5
 
 
+SEED_MAX = 2**63 - 1
+
+
+def validate_seed(seed: Any) -> int | None:
+    """A seed: None or a non-negative integer (NumPy's and Gymnasium's requirement), checked
+    before any stream restarts."""
+    if seed is None:
+        return None
+    if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or not (
+            0 <= seed <= SEED_MAX):
+        raise ValueError(f"seed must be None or an integer in [0, 2**63 - 1], got {seed!r}")
+    return int(seed)
+
+
 @dataclass
 class Events:
     """What happened during one decision, per environment (and per player where it says P)."""
@@ -71,6 +85,7 @@ class Game:
         self.shuttle = ShuttleState.zeros(n_envs)
         # One stream per environment, so that environment i of a batch seeded s replays a
         # single environment seeded s + i (Gymnasium's convention for vector seeds).
+        seed = validate_seed(seed)
         self.rngs = [np.random.default_rng(None if seed is None else seed + i)
                      for i in range(n_envs)]
         self.shaping, self.rearm_on_net = shaping, rearm_on_net
@@ -98,6 +113,7 @@ class Game:
     # -- episodes -------------------------------------------------------------------------------
     def seed(self, envs: np.ndarray, seed: int | None) -> None:
         """Restart the random streams of ``envs``: env ``envs[j]`` gets ``seed + j``."""
+        seed = validate_seed(seed)
         for j, e in enumerate(np.asarray(envs)):
             self.rngs[e] = np.random.default_rng(None if seed is None else seed + j)
 
@@ -137,7 +153,14 @@ class Game:
         """Hold ``actions`` (N, P, 3) in [-1, 1] for one decision; return its events.
 
         ``active`` (N,) bool, optional: games left out are held still (bodies and shuttle keep
-        their state and nothing happens to them), so a batch can wait on some of its games."""
+        their state and nothing happens to them), so a batch can wait on some of its games.
+        Non-finite actions raise ``ValueError`` before anything moves: MuJoCo would reset the
+        whole batch's state on them, not only the offending game's."""
+        finite = np.isfinite(actions)
+        if not finite.all():
+            bad = np.flatnonzero(~finite.reshape(len(finite), -1).all(axis=1))
+            raise ValueError(f"actions must be finite; got NaN or inf for game(s) "
+                             f"{bad[:10].tolist()}")
         self.bodies.set_actions(actions)
         self.events.clear()
         frozen = None if active is None or active.all() else np.flatnonzero(~active)

@@ -31,6 +31,7 @@ import mujoco
 import numpy as np
 
 from rallysim.assets import asset_path
+from rallysim.core.bodies import MjDataViews
 from rallysim.core.rules import FORWARD
 
 XML = "humanlike_player.xml"
@@ -52,7 +53,7 @@ BRAKE_SHARE = 0.5  # share of the strength the servo plans to stop with (the res
 ACTIVE_SET_ROUNDS = 8  # rounds of the exact solve (it converges in 2-6); torques are clipped after
 
 
-class HumanLikeBodies:
+class HumanLikeBodies(MjDataViews):
     """N x P HUMAN-LIKE players (SPEC §10) for ``Game``; see the module docstring.
 
     Actions (N, P, 15) in [-1, 1]: hips velocity x, y = ``max_hips_speed`` * a (own frame);
@@ -69,16 +70,11 @@ class HumanLikeBodies:
         self.n_envs, self.n_players, self.dt = n_envs, n_players, dt
         self.model = build_humanlike_world(n_envs, n_players, dt)
         self.data = mujoco.MjData(self.model)
-        m, d, shape = self.model, self.data, (n_envs, n_players)
+        m, shape = self.model, (n_envs, n_players)
         _check_layout(m, n_envs * n_players)
-        # Views into MuJoCo's memory (players are env-major and contiguous in every array).
-        self.qpos = d.qpos.reshape((*shape, N_JOINTS))
-        self.qvel = d.qvel.reshape((*shape, N_JOINTS))
-        self.torque = d.ctrl.reshape((*shape, N_JOINTS))
-        self._bias = d.qfrc_bias.reshape((*shape, N_JOINTS))
-        self._mocap = d.mocap_pos.reshape((*shape, 3))
-        self._face_pos = d.site_xpos.reshape((*shape, 3))  # world frame
-        self._face_mat = d.site_xmat.reshape((*shape, 3, 3))
+        self.hips = np.zeros((*shape, 2))  # own-frame x, y
+        self.hips[..., 0] = -2.7
+        self._bind_views()
         self._m_index = _inertia_index(m, n_envs, n_players)
 
         geo = humanlike_geometry()
@@ -92,9 +88,6 @@ class HumanLikeBodies:
 
         self.forward = np.broadcast_to(FORWARD[:n_players], shape).copy()
         self._flip = np.stack([self.forward, self.forward, np.ones(shape)], axis=-1)
-        self.hips = np.zeros((*shape, 2))  # own-frame x, y
-        self.hips[..., 0] = -2.7
-        self.base_x = self.hips[..., 0]  # a view: the rulebook's base position
         self.base_moved = np.zeros(shape, dtype=bool)
         self.hips_velocity = np.zeros((*shape, 2))  # own frame, over the last physics step
         self.target = np.zeros((*shape, N_JOINTS))
@@ -110,6 +103,21 @@ class HumanLikeBodies:
         self._dirty = True  # kinematics must be recomputed before they are read
         self._sync_mocap()
         self._sync()
+
+    _views = ("qpos", "qvel", "torque", "_bias", "_mocap", "_face_pos", "_face_mat", "base_x")
+
+    def _bind_views(self) -> None:
+        """Views into MuJoCo's memory (players are env-major and contiguous in every array),
+        and the rulebook's base position as a view of the hips."""
+        d, shape = self.data, (self.n_envs, self.n_players)
+        self.qpos = d.qpos.reshape((*shape, N_JOINTS))
+        self.qvel = d.qvel.reshape((*shape, N_JOINTS))
+        self.torque = d.ctrl.reshape((*shape, N_JOINTS))
+        self._bias = d.qfrc_bias.reshape((*shape, N_JOINTS))
+        self._mocap = d.mocap_pos.reshape((*shape, 3))
+        self._face_pos = d.site_xpos.reshape((*shape, 3))  # world frame
+        self._face_mat = d.site_xmat.reshape((*shape, 3, 3))
+        self.base_x = self.hips[..., 0]
 
     # -- state ---------------------------------------------------------------------------------
     def reset(self, envs: np.ndarray, base_x: np.ndarray, pose: Any = 0.0,

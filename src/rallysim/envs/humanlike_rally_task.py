@@ -43,7 +43,9 @@ def low_level_observations(obs: np.ndarray, goals: np.ndarray) -> np.ndarray:
 
 def goal_conditioned(policy: Callable[[np.ndarray], np.ndarray]) -> LowLevel:
     """A low-level policy of ``HumanLikeReturn-v0`` (85 observations) as a rally low level."""
-    return lambda obs, goals: policy(low_level_observations(obs, goals))
+    from rallysim.policies.callables import GoalConditioned
+
+    return GoalConditioned(policy, low_level_observations)
 
 
 class HumanLikeRallyTask(RallyTask):
@@ -97,8 +99,9 @@ class HumanLikeRallyTask(RallyTask):
 
             return goal_conditioned(AimedSwing())
         if low_level == "random":
-            rng = np.random.default_rng(seed)
-            return lambda obs, goals: rng.uniform(-1.0, 1.0, (len(obs), N_ACTIONS))
+            from rallysim.policies.callables import UniformRandom
+
+            return UniformRandom(N_ACTIONS, seed)
         if isinstance(low_level, str):
             from rallysim.policies.resolve import humanlike_low_level
 

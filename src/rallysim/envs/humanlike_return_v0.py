@@ -53,8 +53,8 @@ Terminates when the shuttle's centre drops below z = 0; truncates after 1000 dec
 | ``max_decisions`` | ``1000`` | truncation |
 | ``render_mode`` | ``None`` | ``"rgb_array"``: ``render()`` returns a 640x360 frame (three-quarter view, the target velocity as a red arrow from the racket head); ``"human"`` (with a display): a viewer window |
 
-``reset(options=...)`` accepts ``target_velocity`` (m/s, own frame, 3 values each in [-5, 5])
-and ``hips_position`` (m, own frame x, y within the hips range); the vector env takes one value
+``reset(options=...)`` accepts ``target_velocity`` (m/s, own frame, 3 values each in [-5, 5],
+a speed of at least 0.5 m/s) and ``hips_position`` (m, own frame x, y within the hips range); the vector env takes one value
 for all environments or one per environment.
 
 ## ``info``
@@ -85,7 +85,7 @@ from rallysim.envs.humanlike_obs import HIPS, PLAYER_OBS_SIZE, SHUTTLE, player_o
 from rallysim.envs.rendering import RENDER_MODES, EnvView
 from rallysim.envs.simple_obs import POSITION_CENTRE, POSITION_SCALE, SHUTTLE_SPEED_SCALE
 from rallysim.envs.task_env import TaskEnv, box_spaces
-from rallysim.envs.validation import check_options, option_values
+from rallysim.envs.validation import positive_int, read_options
 from rallysim.envs.vector_base import NEXT_STEP, TaskVectorEnv
 
 OBS_SIZE = PLAYER_OBS_SIZE + 3  # 85
@@ -101,7 +101,7 @@ SERVE_X, SERVE_Y, SERVE_Z = (1.0, 6.0), (-1.0, 1.0), (1.0, 1.5)  # receiver's ow
 SERVE_LATERAL, SERVE_RISE, SERVE_TOWARD = (-0.5, 0.5), (2.0, 3.0), 3.0
 SERVE_SPEED = 15.0
 HIPS_START = np.array([[-4.5, -1.5], [-1.5, 1.5]])  # x and y ranges
-RESET_OPTIONS = ("target_velocity", "hips_position")
+MIN_TARGET_SPEED = 0.5  # m/s: a target needs a direction, and the speed error divides by it
 HIT_KEYS = ("racket_velocity", "velocity_error", "angle_error", "speed_error")
 N_DRAWS = 10  # uniforms one reset consumes per environment (before the rulebook's own serve)
 
@@ -133,8 +133,7 @@ class HumanLikeReturnTask:
 
     def __init__(self, num_envs: int, shuttle: str = "paper", seed: int | None = None,
                  max_decisions: int = MAX_DECISIONS) -> None:
-        if max_decisions < 1:
-            raise ValueError(f"max_decisions must be >= 1, got {max_decisions}")
+        positive_int(max_decisions, "max_decisions")
         self.n = num_envs
         self.bodies = HumanLikeBodies(num_envs, 1)
         self.game = Game(num_envs, 1, shuttle=shuttle, seed=seed, bodies=self.bodies)
@@ -144,21 +143,31 @@ class HumanLikeReturnTask:
 
     def reset(self, envs: np.ndarray, options: dict[str, Any] | None = None) -> None:
         envs = np.asarray(envs, np.int64)
-        opts = check_options(options, RESET_OPTIONS)
         k, game = len(envs), self.game
+        given = self.reset_options(options, k)
         # One draw per environment from its own stream, whatever the options say, so that
         # an option changes only the value it sets.
         u = np.stack([game.rngs[e].random(N_DRAWS) for e in envs]).reshape(k, N_DRAWS)
         lo, hi = HIPS_START[:, 0], HIPS_START[:, 1]
-        hips = _vector_option(opts, "hips_position", k, 2, self.bodies.hips_range,
-                              lo + u[:, 0:2] * (hi - lo))
-        self.goal[envs] = _vector_option(opts, "target_velocity", k, 3,
-                                         np.array([[-TARGET_SCALE, TARGET_SCALE]] * 3),
-                                         sample_targets(u[:, 2:5]))
+        hips = given.get("hips_position", lo + u[:, 0:2] * (hi - lo))
+        self.goal[envs] = given.get("target_velocity", sample_targets(u[:, 2:5]))
         # The rulebook serves SPEC §4.3; the HUMAN-LIKE serve replaces it.
         game.reset(envs, receiver=0, base_x=hips[:, :1], theta=0.0, base_y=hips[:, 1:])
         game.launch(envs, *sample_serves(u[:, 5:10]))
         self.elapsed[envs] = 0
+
+    def reset_options(self, options: dict[str, Any] | None, k: int) -> dict[str, np.ndarray]:
+        """The given reset options for ``k`` environments, checked (``ValueError``)."""
+        given = read_options(options, {
+            "target_velocity": ((k, 3), np.array([[-TARGET_SCALE, TARGET_SCALE]] * 3)),
+            "hips_position": ((k, 2), self.bodies.hips_range)})
+        if "target_velocity" in given:
+            slow = np.linalg.norm(given["target_velocity"], axis=1) < MIN_TARGET_SPEED
+            if slow.any():
+                raise ValueError(f"option 'target_velocity' needs a speed of at least "
+                                 f"{MIN_TARGET_SPEED} m/s (its direction is the goal), got "
+                                 f"{given['target_velocity'][slow][0].tolist()}")
+        return given
 
     def observe(self) -> np.ndarray:
         obs = np.empty((self.n, OBS_SIZE))
@@ -198,13 +207,6 @@ class HumanLikeReturnTask:
             info["_" + key] = hit.copy()
         info["_landing_point"] = info["landed"].copy()
         return reward, terminated, truncated, info
-
-
-def _vector_option(opts: dict, key: str, k: int, size: int, bounds: np.ndarray,
-                   drawn: np.ndarray) -> np.ndarray:
-    """Option ``key`` as (k, size) checked values, else ``drawn``."""
-    value = option_values(opts, key, (k, size), bounds)
-    return drawn if value is None else value
 
 
 def _spaces() -> tuple[spaces.Box, spaces.Box]:
@@ -254,8 +256,7 @@ class HumanLikeReturnVectorEnv(TaskVectorEnv):
                  max_decisions: int = MAX_DECISIONS, autoreset_mode: str = "next_step",
                  render_mode: str | None = None, seed: int | None = None,
                  render_envs: int = 1) -> None:
-        if not isinstance(num_envs, int | np.integer) or num_envs < 1:
-            raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
+        num_envs = positive_int(num_envs, "num_envs")
         task = HumanLikeReturnTask(int(num_envs), shuttle, seed, max_decisions)
         self._init_task(num_envs, autoreset_mode, task, _spaces(), render_mode, render_envs,
                         {"player": "humanlike"})

@@ -16,9 +16,12 @@ def has_display() -> bool:
     return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
 
 
-# "human" opens a window, so it is offered only where a display exists (checkers such as
-# Gymnasium's env_checker try every listed mode).
-RENDER_MODES = ["rgb_array", "human"] if has_display() else ["rgb_array"]
+# "human" is listed whether or not a display exists: for a mode missing from this list,
+# gymnasium.make swaps in its own pygame window (HumanRendering over "rgb_array"), which fails
+# only at reset, far from the cause. Listed, the env itself refuses "human" without a display
+# (check_render_mode). Gymnasium's env_checker, which tries every listed mode, then needs a
+# display or skip_render_check=True, as for Gymnasium's own MuJoCo envs.
+RENDER_MODES = ["rgb_array", "human"]
 
 
 def check_render_mode(render_mode: str | None) -> str | None:
@@ -52,8 +55,9 @@ class EnvView:
             except ImportError as err:
                 raise ImportError("rendering needs the render extra: "
                                   "pip install 'rallysim[render]'") from err
+            # "human": MuJoCo's viewer draws the model itself, no offscreen context needed
             self._scene = SceneRenderer(self.n_players, *self.size, camera=self.camera,
-                                        player=self.player)
+                                        player=self.player, offscreen=self.mode == "rgb_array")
         return self._scene
 
     def new_episode(self) -> None:
@@ -68,17 +72,18 @@ class EnvView:
         if self.mode is None:
             return None
         scene = self._scene_renderer()
-        frame = scene.render(game, env_index, target_depth, hud_text,
-                             target_velocity=target_velocity)
         if self.mode == "rgb_array":
-            return frame
+            return scene.render(game, env_index, target_depth, hud_text,
+                                target_velocity=target_velocity)
         if self._viewer is None:
-            import mujoco.viewer
+            from rallysim.render.play import launch_viewer
 
-            self._viewer = mujoco.viewer.launch_passive(scene.model, scene.data)
-        # targets drawn per frame, not bodies of the model (HUMAN-LIKE's arrows; SIMPLE has
-        # none), go to the viewer's own scene
+            self._viewer = launch_viewer(scene.model, scene.data, scene.camera)
+        # the viewer draws from its own thread: change its world only under its lock.
+        # Targets drawn per frame, not bodies of the model (HUMAN-LIKE's arrows; SIMPLE has
+        # none), go to the viewer's own scene.
         with self._viewer.lock():
+            scene.set_state(game, env_index, target_depth, target_velocity=target_velocity)
             self._viewer.user_scn.ngeom = 0
             scene.draw_markers(self._viewer.user_scn)
         self._viewer.sync()

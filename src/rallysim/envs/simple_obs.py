@@ -32,6 +32,12 @@ def normalise_position(p: np.ndarray) -> np.ndarray:
     return (p - POSITION_CENTRE) / POSITION_SCALE
 
 
+def depth_from_action(action: np.ndarray) -> np.ndarray:
+    """A high level's action a in [-1, 1] (clipped) -> the goal depth 4 + 2a metres (M,), the
+    original's mapping."""
+    return 4.0 + 2.0 * np.clip(np.asarray(action).reshape(-1), -1.0, 1.0)
+
+
 def normalise_depth(depth: np.ndarray) -> np.ndarray:
     lo, hi = TARGET_DEPTH_RANGE
     return (np.asarray(depth) - 0.5 * (lo + hi)) / (0.5 * (hi - lo))

@@ -70,7 +70,7 @@ from rallysim.envs.rally_task import RallyConfig, RallyTask
 from rallysim.envs.rendering import RENDER_MODES, EnvView
 from rallysim.envs.simple_obs import TARGET_DEPTH_RANGE
 from rallysim.envs.turn_task import LowLevel, TurnTask
-from rallysim.envs.validation import validate_actions
+from rallysim.envs.validation import validate_actions, validate_goals, validate_seed
 from rallysim.envs.vector_base import NEXT_STEP, NativeVectorEnv
 
 AGENTS = ("player_0", "player_1")
@@ -174,7 +174,7 @@ class SimpleRallyParallelEnv(ParallelEnv):
 
     def reset(self, seed: int | None = None, options: dict | None = None):
         _ignore_options(options, self.metadata["name"])
-        if seed is not None:
+        if validate_seed(seed) is not None:
             self.task.game.seed(np.array([0]), seed)
         self.task.reset(np.array([0]))
         self.agents = list(AGENTS)
@@ -250,8 +250,6 @@ class SimpleRallyVectorEnv(NativeVectorEnv):
             self.task.game.seed(np.array([e]), s)
 
     def _reset_units(self, units: np.ndarray, options: dict | None) -> None:
-        if options:
-            raise ValueError(f"unknown reset option(s) {sorted(options)}; valid options: []")
         self.task.reset(units)
 
     def _step_units(self, actions):
@@ -301,8 +299,8 @@ class SimpleRallyTurnAECEnv(AECEnv):
 
     def reset(self, seed: int | None = None, options: dict | None = None) -> None:
         _ignore_options(options, self.metadata["name"])
-        if seed is not None:
-            self.turns.rally.game.seed(np.array([0]), seed)
+        if validate_seed(seed) is not None:
+            self.turns.seed([seed])
         self.turns.reset(np.array([0]))
         self.agents = list(AGENTS)
         self.rewards = {a: 0.0 for a in AGENTS}
@@ -325,10 +323,7 @@ class SimpleRallyTurnAECEnv(AECEnv):
         if self.terminations[agent] or self.truncations[agent]:
             self._was_dead_step(action)
             return
-        goal = np.asarray(action, dtype=np.float64).reshape(-1)
-        size = self.rally.goal_size
-        if goal.shape != (size,):
-            raise ValueError(f"the action is one goal, shape ({size},), got {np.shape(action)}")
+        goal = validate_goals(action, (self.rally.goal_size,))
         self._cumulative_rewards[agent] = 0.0
         out = self.turns.step(goal)
         for i, a in enumerate(AGENTS):
@@ -382,21 +377,14 @@ class SimpleRallyTurnVectorEnv(NativeVectorEnv):
                                        (self.num_envs, self.rally.goal_size), np.float32)
 
     def _seed_units(self, seeds: list[int]) -> None:
-        for e, s in enumerate(seeds):
-            self.turns.rally.game.seed(np.array([e]), s)
+        self.turns.seed(seeds)
 
     def _reset_units(self, units: np.ndarray, options: dict | None) -> None:
-        if options:
-            raise ValueError(f"unknown reset option(s) {sorted(options)}; valid options: []")
         self.turns.reset(units)
 
     def _step_units(self, actions):
         size = self.rally.goal_size
-        goals = np.asarray(actions, dtype=np.float64)
-        if goals.size != self.num_envs * size:
-            raise ValueError(f"actions must hold one goal per rally, shape ({self.num_envs}, "
-                             f"{size}), got {np.shape(actions)}")
-        goals = goals.reshape(self.num_envs, size)
+        goals = validate_goals(actions, (self.num_envs, size))
         if size == 1:
             goals = goals[:, 0]
         # rallies waiting for their next-step reset do not play
@@ -447,7 +435,8 @@ class SimpleRallyTurnEnv(gym.Env):
     def step(self, action):
         if self._done:
             raise RuntimeError("the rally has ended (or never began): call reset() first")
-        obs, r, term, trunc, info = self.vec.step(np.asarray(action, np.float64).reshape(1, -1))
+        goal = validate_goals(action, (self.vec.rally.goal_size,))
+        obs, r, term, trunc, info = self.vec.step(goal[None])
         self._done = bool(term[0] or trunc[0])
         return (obs[0], float(r[0]), bool(term[0]), bool(trunc[0]),
                 {k: v[0].item() for k, v in info.items()})

@@ -55,7 +55,8 @@ a hit and the landing keys only at the landing; the vector env gives arrays for 
 NaN where a value does not apply and Gymnasium's ``_key`` masks marking where it does.
 
 ## Version history
-- v0: first release.
+- v0: first release. Fix (2026-11-23): reset options no longer shift the random stream
+  (episodes reset without options are unchanged).
 """
 
 from __future__ import annotations
@@ -75,7 +76,7 @@ from rallysim.envs.simple_obs import (
     player_observations,
 )
 from rallysim.envs.task_env import TaskEnv, box_spaces
-from rallysim.envs.validation import check_options, option_values
+from rallysim.envs.validation import positive_int, read_options
 from rallysim.envs.vector_base import NEXT_STEP, TaskVectorEnv
 
 OBS_SIZE = PLAYER_OBS_SIZE + 1
@@ -85,7 +86,6 @@ R_HIT = 1.0
 SHAPING_GOOD = 0.001
 SHAPING_BAD = -0.005
 R_DIST_RATE = 0.5
-RESET_OPTIONS = ("target_depth", "base_x", "arm_angle")
 INCOMING = ("serve", "mixed", "rally")
 LANDING_KEYS = ("landing_point", "landing_depth", "landing_error", "landed_in")
 
@@ -108,8 +108,7 @@ class ReturnTask:
         if not TARGET_DEPTH_RANGE[0] <= lo <= hi <= TARGET_DEPTH_RANGE[1]:
             raise ValueError(f"target_depth_range must lie within {TARGET_DEPTH_RANGE}, got "
                              f"{target_depth_range}")
-        if max_decisions < 1:
-            raise ValueError(f"max_decisions must be >= 1, got {max_decisions}")
+        positive_int(max_decisions, "max_decisions")
         self.n = num_envs
         self.game = Game(num_envs, 1, shuttle=shuttle, seed=seed, shaping=True)
         self.depth_range = (lo, hi)
@@ -119,16 +118,14 @@ class ReturnTask:
 
     def reset(self, envs: np.ndarray, options: dict[str, Any] | None = None) -> None:
         envs = np.asarray(envs, np.int64)
-        opts = check_options(options, RESET_OPTIONS)
-        b = self.game.bodies
+        b, limit = self.game.bodies, self.game.bodies.limit
+        given = self.reset_options(options, len(envs))
+        # The same draws whatever the options say, so an option changes only what it sets.
         rngs = [self.game.rngs[e] for e in envs]
-        base_x = _option(opts, "base_x", len(envs), b.base_range,
-                         lambda: np.array([r.uniform(*b.base_range) for r in rngs]))
-        limit = b.limit
-        theta = _option(opts, "arm_angle", len(envs), (-limit, limit),
-                        lambda: np.array([r.uniform(-limit, limit) for r in rngs]))
+        base_x = given.get("base_x", np.array([r.uniform(*b.base_range) for r in rngs]))
+        theta = given.get("arm_angle", np.array([r.uniform(-limit, limit) for r in rngs]))
         # the original builds: robots stay where the last episode left them
-        keep = self._started[envs] & (self.keep_bodies and not opts)
+        keep = self._started[envs] & (self.keep_bodies and not given)
         carry = envs[keep]
         base_x[keep], theta[keep] = b.base_x[carry, 0], b.theta[carry, 0]
         omega = b.omega[carry, 0].copy()
@@ -137,9 +134,16 @@ class ReturnTask:
         self._started[envs] = True
         if self.incoming != "serve":
             self._player_shots(envs, rngs)
-        self.goal[envs] = _option(opts, "target_depth", len(envs), TARGET_DEPTH_RANGE,
-                                  lambda: np.array([r.uniform(*self.depth_range) for r in rngs]))
+        self.goal[envs] = given.get("target_depth",
+                                    np.array([r.uniform(*self.depth_range) for r in rngs]))
         self.elapsed[envs] = 0
+
+    def reset_options(self, options: dict[str, Any] | None, k: int) -> dict[str, np.ndarray]:
+        """The given reset options for ``k`` environments, checked (``ValueError``)."""
+        b = self.game.bodies
+        return read_options(options, {"target_depth": ((k,), TARGET_DEPTH_RANGE),
+                                      "base_x": ((k,), b.base_range),
+                                      "arm_angle": ((k,), (-b.limit, b.limit))})
 
     def _player_shots(self, envs: np.ndarray, rngs: list) -> None:
         """Replace the serve by a recorded rally shot: always ("rally") or half the time
@@ -188,12 +192,6 @@ class ReturnTask:
         for key in LANDING_KEYS:
             info["_" + key] = info["landed"].copy()
         return reward, terminated, truncated, info
-
-
-def _option(opts: dict, key: str, k: int, bounds: tuple[float, float], draw) -> np.ndarray:
-    """Option ``key`` as k checked values, or ``draw()`` when absent."""
-    value = option_values(opts, key, (k,), bounds)
-    return draw() if value is None else value
 
 
 def _spaces() -> tuple[spaces.Box, spaces.Box]:
@@ -245,8 +243,7 @@ class SimpleReturnVectorEnv(TaskVectorEnv):
                  render_mode: str | None = None, seed: int | None = None,
                  render_envs: int = 1, incoming: str = "serve",
                  keep_bodies: bool = False) -> None:
-        if not isinstance(num_envs, int | np.integer) or num_envs < 1:
-            raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
+        num_envs = positive_int(num_envs, "num_envs")
         task = ReturnTask(int(num_envs), shuttle, seed, target_depth_range, max_decisions,
                           incoming, keep_bodies)
         self._init_task(num_envs, autoreset_mode, task, _spaces(), render_mode, render_envs, {})

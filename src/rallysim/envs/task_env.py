@@ -14,7 +14,7 @@ import numpy as np
 from gymnasium import spaces
 
 from rallysim.envs.rendering import EnvView
-from rallysim.envs.validation import validate_actions
+from rallysim.envs.validation import validate_actions, validate_seed
 
 
 def box_spaces(obs_size: int, action_size: int) -> tuple[spaces.Box, spaces.Box]:
@@ -48,7 +48,9 @@ class TaskEnv(gym.Env):
         raise NotImplementedError
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
-        super().reset(seed=seed)
+        # checked before a stream is restarted: a rejected reset changes nothing
+        self.task.reset_options(options, 1)
+        super().reset(seed=validate_seed(seed))
         if seed is not None:
             self.task.game.seed(np.array([0]), seed)
         self.task.reset(np.array([0]), options)

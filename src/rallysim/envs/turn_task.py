@@ -31,8 +31,9 @@ def resolve_low_level(low_level: LowLevel | str, seed: int | None = None) -> Low
 
         return ScriptedController()
     if low_level == "random":
-        rng = np.random.default_rng(seed)
-        return lambda obs, goals: rng.uniform(-1.0, 1.0, (len(obs), 3))
+        from rallysim.policies.callables import UniformRandom
+
+        return UniformRandom(3, seed)
     raise ValueError(f"unknown low_level {low_level!r}; pass a callable "
                      "(observations, goals) -> actions, or 'scripted' or 'random'")
 
@@ -56,6 +57,14 @@ class TurnTask:
         self.goals = np.empty((num_rallies, 2, *np.shape(rally.default_goal)))
         self.goals[:] = rally.default_goal
         self.turn_player = np.zeros(num_rallies, np.int64)
+
+    def seed(self, seeds: list[int]) -> None:
+        """Restart rally e's random stream at ``seeds[e]``, and a seedable low level's (such as
+        ``"random"``) at ``seeds[0]``, so that ``reset(seed=s)`` replays an episode exactly."""
+        for e, s in enumerate(seeds):
+            self.rally.game.seed(np.array([e]), s)
+        if hasattr(self.low_level, "seed") and seeds:
+            self.low_level.seed(seeds[0])
 
     def reset(self, envs: np.ndarray) -> None:
         envs = np.asarray(envs, np.int64)
@@ -90,9 +99,8 @@ class TurnTask:
         flat_goals = self.goals.reshape((2 * n, *self.goals.shape[2:]))
         while running.any():
             obs = rally.observe().reshape(2 * n, rally.obs_size)
-            actions = np.clip(self.low_level(obs, flat_goals), -1.0, 1.0)
-            reward, term, trunc, info = rally.step(actions.reshape(n, 2, rally.action_size),
-                                                   active=running)
+            actions = self._low_level_actions(obs, flat_goals)
+            reward, term, trunc, info = rally.step(actions, active=running)
             out["reward"] += reward * running[:, None]
             out["decisions"] += running
             out["hits"] += info["hit"] & running[:, None]
@@ -107,3 +115,16 @@ class TurnTask:
                 self.turn_player[turn] = rally.turn_started[turn].argmax(axis=1)
                 running[s] = False
         return out
+
+    def _low_level_actions(self, obs: np.ndarray, goals: np.ndarray) -> np.ndarray:
+        """The low level's actions (N, 2, action_size), clipped; a wrong shape or a non-finite
+        value raises ``ValueError`` naming the low level (a damaged policy must not play on)."""
+        n, size = self.n, self.rally.action_size
+        actions = np.asarray(self.low_level(obs, goals))
+        if actions.shape != (2 * n, size):
+            raise ValueError(f"the low level {self.low_level!r} returned actions of shape "
+                             f"{actions.shape}, expected {(2 * n, size)}")
+        if actions.dtype.kind not in "fiu" or not np.isfinite(actions).all():
+            raise ValueError(f"the low level {self.low_level!r} returned non-finite or "
+                             "non-real actions")
+        return np.clip(actions, -1.0, 1.0).reshape(n, 2, size)

@@ -1,4 +1,6 @@
-"""Checks shared by every API view: actions and reset options."""
+"""Checks shared by every API view: actions, goals and reset options. Each raises ``ValueError``
+with the reason before anything is modified, so a rejected call leaves the env's state as it
+was."""
 
 from __future__ import annotations
 
@@ -7,25 +9,55 @@ from typing import Any
 
 import numpy as np
 
+from rallysim.core.game import validate_seed
 
-def validate_actions(actions: Any, shape: tuple[int, ...], lo: float = -1.0,
-                     hi: float = 1.0) -> np.ndarray:
-    """``actions`` as a float64 array of ``shape``, clipped to [lo, hi].
+__all__ = ["check_options", "option_values", "positive_int", "read_options", "real_array",
+           "validate_actions", "validate_goals", "validate_seed"]
 
-    Raises ``ValueError`` naming the problem for a wrong shape or non-finite values; nothing
-    is modified, so the caller's state stays untouched."""
+
+def real_array(value: Any, what: str, shape: tuple[int, ...]) -> np.ndarray:
+    """``value`` as a float64 array of real numbers. Strings, bytes, booleans, complex numbers,
+    objects, dicts and None are refused rather than parsed or cast."""
+    if value is None or isinstance(value, (dict, str, bytes)):
+        raise ValueError(f"{what} must be real numbers with shape {shape}, got "
+                         f"{type(value).__name__}")
     try:
-        a = np.asarray(actions, dtype=np.float64)
+        a = np.asarray(value)
     except (TypeError, ValueError) as err:
-        raise ValueError(f"actions must be numeric with shape {shape}: {err}") from None
-    if a.shape != shape:
-        raise ValueError(f"actions must have shape {shape}, got {a.shape}")
+        raise ValueError(f"{what} must be real numbers with shape {shape}: {err}") from None
+    if a.dtype.kind not in "iuf":
+        raise ValueError(f"{what} must be real numbers with shape {shape}, got {a.dtype} "
+                         "values")
+    return a.astype(np.float64)
+
+
+def _refuse_non_finite(a: np.ndarray, what: str) -> None:
     bad = ~np.isfinite(a)
     if bad.any():
         where = np.argwhere(bad)[:3].tolist()
         kind = "NaN" if np.isnan(a[bad]).any() else "inf"
-        raise ValueError(f"actions contain {kind} (non-finite) values at indices {where}")
+        raise ValueError(f"{what} contain {kind} (non-finite) values at indices {where}")
+
+
+def validate_actions(actions: Any, shape: tuple[int, ...], lo: float = -1.0,
+                     hi: float = 1.0) -> np.ndarray:
+    """``actions`` as a float64 array of exactly ``shape``, finite, clipped to [lo, hi]."""
+    a = real_array(actions, "actions", shape)
+    if a.shape != shape:
+        raise ValueError(f"actions must have shape {shape}, got {a.shape}")
+    _refuse_non_finite(a, "actions")
     return np.clip(a, lo, hi)
+
+
+def validate_goals(goals: Any, shape: tuple[int, ...]) -> np.ndarray:
+    """Turn-based goals as a finite float64 array of ``shape``; where goals are single values
+    (a trailing 1 in ``shape``) that axis may be left out. Shapes are checked, never reshaped
+    from the size alone."""
+    a = real_array(goals, "goals", shape)
+    if a.shape != shape and not (shape[-1] == 1 and a.shape == shape[:-1]):
+        raise ValueError(f"goals must have shape {shape}, got {a.shape}")
+    _refuse_non_finite(a, "goals")
+    return a.reshape(shape)
 
 
 def check_options(options: dict[str, Any] | None, valid: Iterable[str]) -> dict[str, Any]:
@@ -35,7 +67,7 @@ def check_options(options: dict[str, Any] | None, valid: Iterable[str]) -> dict[
     if not isinstance(options, dict):
         raise ValueError(f"options must be a dict, got {type(options).__name__}")
     valid = tuple(valid)
-    unknown = sorted(set(options) - set(valid))
+    unknown = sorted(set(options) - set(valid), key=repr)
     if unknown:
         raise ValueError(f"unknown reset option(s) {unknown}; valid options: {list(valid)}")
     return options
@@ -48,7 +80,7 @@ def option_values(opts: dict[str, Any], key: str, shape: tuple[int, ...],
     if key not in opts:
         return None
     try:
-        value = np.broadcast_to(np.asarray(opts[key], dtype=np.float64), shape).copy()
+        value = np.broadcast_to(real_array(opts[key], f"option {key!r}", shape), shape).copy()
     except (TypeError, ValueError):
         per = f"{shape[1]} numbers or one row of {shape[1]}" if len(shape) > 1 else "a number"
         raise ValueError(f"option {key!r} must be {per} (or one per environment), got "
@@ -60,3 +92,20 @@ def option_values(opts: dict[str, Any], key: str, shape: tuple[int, ...],
         ranges = ", ".join(f"[{lo:.4g}, {hi:.4g}]" for lo, hi in b)
         raise ValueError(f"option {key!r} must lie in {ranges}, got {opts[key]!r}")
     return value
+
+
+def read_options(options: dict[str, Any] | None,
+                 specs: dict[str, tuple[tuple[int, ...], Any]]) -> dict[str, np.ndarray]:
+    """Every given reset option checked (``specs``: key -> (shape, bounds), as
+    ``option_values``), all of them before the caller draws a random number or moves a body:
+    a rejected reset changes nothing."""
+    opts = check_options(options, specs)
+    return {key: option_values(opts, key, shape, bounds)
+            for key, (shape, bounds) in specs.items() if key in opts}
+
+
+def positive_int(value: Any, name: str) -> int:
+    """``value`` as an integer >= 1 (not a boolean, not a float)."""
+    if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 1:
+        raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
+    return int(value)

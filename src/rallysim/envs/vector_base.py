@@ -12,6 +12,8 @@ from typing import Any
 import numpy as np
 from gymnasium.vector import VectorEnv
 
+from rallysim.envs.validation import check_options, positive_int, validate_seed
+
 try:  # Gymnasium >= 1.1
     from gymnasium.vector import AutoresetMode
 
@@ -45,9 +47,7 @@ class NativeVectorEnv(VectorEnv):
     _views: list = []  # renderers of the first units, whose trails restart with each episode
 
     def _setup(self, num_units: int, autoreset_mode: Any) -> None:
-        if not isinstance(num_units, int | np.integer) or num_units < 1:
-            raise ValueError(f"the number of environments must be a positive integer, "
-                             f"got {num_units!r}")
+        num_units = positive_int(num_units, "the number of environments")
         key = parse_autoreset_mode(autoreset_mode)
         self.metadata = {**self.metadata, "autoreset_mode": AUTORESET_MODES[key]}
         self._same_step = key == "same_step"
@@ -57,6 +57,10 @@ class NativeVectorEnv(VectorEnv):
         self._pending = np.zeros(0, np.int64)
 
     # -- for subclasses -------------------------------------------------------------------------
+    def _check_options(self, options: dict[str, Any] | None) -> None:
+        """Raise ``ValueError`` for reset options this env refuses (default: any)."""
+        check_options(options, ())
+
     def _seed_units(self, seeds: list[int]) -> None:
         raise NotImplementedError
 
@@ -101,17 +105,28 @@ class NativeVectorEnv(VectorEnv):
 
     def reset(self, *, seed: int | list[int] | None = None,
               options: dict[str, Any] | None = None):
-        if seed is not None:
-            seeds = ([seed + i for i in range(self.num_units)] if np.isscalar(seed)
-                     else list(seed))
-            if len(seeds) == self.num_envs != self.num_units:  # one per slot: a unit's first
-                seeds = seeds[:: self.slots_per_unit]
-            if len(seeds) != self.num_units:
-                raise ValueError(f"expected {self.num_units} seeds, got {len(seeds)}")
+        # Seeds and options are checked before a stream is restarted: a rejected reset
+        # changes nothing.
+        seeds = None if seed is None else self._check_seeds(seed)
+        self._check_options(options)
+        if seeds is not None:
             self._seed_units(seeds)
         self._restart(np.arange(self.num_units), options)
         self._needs_reset[:] = False
         return self._observe(), self._reset_info()
+
+    def _check_seeds(self, seed: Any) -> list[int]:
+        if np.isscalar(seed) or isinstance(seed, bool):
+            seeds = [validate_seed(seed) + i for i in range(self.num_units)]
+        elif isinstance(seed, list | tuple | np.ndarray):
+            seeds = [validate_seed(s) for s in seed]
+        else:
+            raise ValueError(f"seed must be an integer or a list of integers, got {seed!r}")
+        if len(seeds) == self.num_envs != self.num_units:  # one per slot: a unit's first
+            seeds = seeds[:: self.slots_per_unit]
+        if len(seeds) != self.num_units:
+            raise ValueError(f"expected {self.num_units} seeds, got {len(seeds)}")
+        return seeds
 
     def step(self, actions):
         pending = np.flatnonzero(self._needs_reset)
@@ -170,6 +185,9 @@ class TaskVectorEnv(NativeVectorEnv):
     def _seed_units(self, seeds: list[int]) -> None:
         for e, s in enumerate(seeds):
             self.task.game.seed(np.array([e]), s)
+
+    def _check_options(self, options: dict[str, Any] | None) -> None:
+        self.task.reset_options(options, self.num_units)
 
     def _reset_units(self, units: np.ndarray, options: dict | None) -> None:
         self.task.reset(units, options)

@@ -9,11 +9,12 @@ neither torch nor Stable-Baselines3.
 from __future__ import annotations
 
 import hashlib
-import json
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from rallysim.jsondoc import read_object, require
 
 FORMAT = "rallysim-mlp-policy"
 FORMAT_VERSION = 1
@@ -62,8 +63,10 @@ class MLPPolicy:
 def load_policy(prefix: str | Path, expect_obs_size: int | None = None) -> MLPPolicy:
     """Load a policy written by ``rallysim.train.export.save_policy``.
 
-    Raises ``FileNotFoundError`` for missing files and ``ValueError`` naming the problem for a
-    corrupted file, a weights/JSON mismatch or an unexpected observation size."""
+    Raises ``FileNotFoundError`` for missing files and ``ValueError`` naming the file and the
+    field for anything else: a corrupted or foreign file, a weights/JSON mismatch, tensors of
+    the wrong shape (a bias that would broadcast), non-finite weights or action bounds, or an
+    unexpected observation size."""
     from safetensors import SafetensorError
     from safetensors.numpy import load_file
 
@@ -71,33 +74,63 @@ def load_policy(prefix: str | Path, expect_obs_size: int | None = None) -> MLPPo
     for path in (weights_path, json_path):
         if not path.is_file():
             raise FileNotFoundError(f"policy file {path} does not exist")
-    try:
-        spec = json.loads(json_path.read_text())
-    except json.JSONDecodeError as err:
-        raise ValueError(f"{json_path} is corrupted (not JSON): {err}") from None
+    spec = read_object(json_path, "policy")
+
+    def field(doc: Any, name: str, kind: type | tuple[type, ...], where: str = "") -> Any:
+        return require(doc, name, kind, json_path, "policy", where=where)
+
     if spec.get("format") != FORMAT or spec.get("format_version") != FORMAT_VERSION:
         raise ValueError(f"{json_path} is not a {FORMAT} v{FORMAT_VERSION} document")
-    digest = spec.get("weights_sha256")
+    digest = field(spec, "weights_sha256", (str, type(None))) if "weights_sha256" in spec else None
     if digest is not None and sha256_file(weights_path) != digest:
         raise ValueError(f"{weights_path} does not match its JSON (SHA-256 differs): the file "
                          "is corrupted or belongs to another policy")
+    arch = field(spec, "architecture", dict)
+    n_layers = field(arch, "n_layers", int, "architecture.")
+    sizes = field(arch, "sizes", list, "architecture.")
+    activation = field(arch, "activation", str, "architecture.")
+    if (n_layers < 1 or len(sizes) != n_layers + 1
+            or not all(type(n) is int and n >= 1 for n in sizes)):
+        raise ValueError(f"policy {json_path}: architecture.sizes must be {n_layers} + 1 "
+                         f"positive integers (architecture.n_layers = {n_layers}), got {sizes}")
+    if activation not in ACTIVATIONS:
+        raise ValueError(f"policy {json_path}: architecture.activation must be one of "
+                         f"{sorted(ACTIVATIONS)}, got {activation!r}")
+    act = field(spec, "action", dict)
+    bounds = [_finite_vector(field(act, key, list, "action."), sizes[-1], json_path,
+                             f"action.{key}") for key in ("low", "high")]
+    if np.any(bounds[0] > bounds[1]):
+        raise ValueError(f"policy {json_path}: action.low exceeds action.high")
     try:
         tensors = load_file(str(weights_path))
     except (SafetensorError, OSError, ValueError) as err:
         raise ValueError(f"{weights_path} is corrupted: {err}") from None
-    arch = spec["architecture"]
-    try:
-        layers = [(tensors[f"layers.{i}.weight"], tensors[f"layers.{i}.bias"])
-                  for i in range(arch["n_layers"])]
-        log_std = tensors["log_std"]
-    except KeyError as err:
-        raise ValueError(f"{weights_path} lacks tensor {err}") from None
-    sizes = [int(layers[0][0].shape[1])] + [int(w.shape[0]) for w, _ in layers]
-    if sizes != arch["sizes"]:
-        raise ValueError(f"weights have layer sizes {sizes}, the JSON says {arch['sizes']}")
+
+    def tensor(name: str, shape: tuple[int, ...]) -> np.ndarray:
+        if name not in tensors:
+            raise ValueError(f"{weights_path} lacks tensor {name!r}")
+        t = tensors[name]
+        if t.shape != shape:
+            raise ValueError(f"{weights_path}: tensor {name} has shape {t.shape}, the JSON's "
+                             f"architecture.sizes {sizes} needs {shape}")
+        if t.dtype.kind != "f" or not np.isfinite(t).all():
+            raise ValueError(f"{weights_path}: tensor {name} must hold finite real numbers")
+        return t
+
+    layers = [(tensor(f"layers.{i}.weight", (sizes[i + 1], sizes[i])),
+               tensor(f"layers.{i}.bias", (sizes[i + 1],))) for i in range(n_layers)]
+    log_std = tensor("log_std", (sizes[-1],))
     if expect_obs_size is not None and sizes[0] != expect_obs_size:
         raise ValueError(f"{prefix} takes {sizes[0]} observations, this use needs "
                          f"{expect_obs_size}")
-    act = spec["action"]
-    return MLPPolicy(layers, arch["activation"], np.asarray(act["low"], np.float32),
-                     np.asarray(act["high"], np.float32), log_std, spec)
+    return MLPPolicy(layers, activation, bounds[0], bounds[1], log_std, spec)
+
+
+def _finite_vector(values: list, size: int, source: Path, name: str) -> np.ndarray:
+    if len(values) != size or not all(type(v) in (int, float) for v in values):
+        raise ValueError(f"policy {source}: {name} must be {size} numbers, got "
+                         f"{str(values)[:60]}")
+    out = np.asarray(values, np.float32)
+    if not np.isfinite(out).all():
+        raise ValueError(f"policy {source}: {name} must be finite, got {str(values)[:60]}")
+    return out

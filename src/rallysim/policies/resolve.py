@@ -18,8 +18,9 @@ from pathlib import Path
 
 import numpy as np
 
-from rallysim.envs.simple_obs import TARGET_DEPTH_RANGE
+from rallysim.envs.simple_obs import TARGET_DEPTH_RANGE, depth_from_action
 from rallysim.envs.turn_task import LowLevel
+from rallysim.policies.callables import Composed, FixedGoal, UniformRandom
 
 Policy = Callable[[np.ndarray], np.ndarray]
 PRETRAINED = Path(__file__).parent / "pretrained"
@@ -62,8 +63,7 @@ def low_level_policy(spec: str, seed: int = 0) -> Policy:
 
         return ScriptedController().act_return
     if spec == "random":
-        rng = np.random.default_rng(seed)
-        return lambda obs: rng.uniform(-1.0, 1.0, (len(obs), 3))
+        return UniformRandom(3, seed)
     return load_network(spec, "low")
 
 
@@ -82,18 +82,14 @@ def high_level_policy(spec: str, seed: int = 0) -> Policy:
     """``(M, 20) observations -> (M,) goals in metres``."""
     lo, hi = TARGET_DEPTH_RANGE
     if spec == "random":
-        rng = np.random.default_rng(seed)
-        return lambda obs: rng.uniform(lo, hi, len(obs))
+        return UniformRandom(None, seed, lo, hi)
     if spec.startswith("fixed:"):
-        goal = float(np.clip(float(spec.split(":", 1)[1]), lo, hi))
-        return lambda obs: np.full(len(obs), goal)
-    net = load_network(spec, "high")
-    return lambda obs: 4.0 + 2.0 * np.clip(np.asarray(net(obs)).reshape(len(obs)), -1.0, 1.0)
+        return FixedGoal(float(np.clip(float(spec.split(":", 1)[1]), lo, hi)))
+    return Composed(depth_from_action, load_network(spec, "high"))
 
 
 def mono_policy(spec: str, seed: int = 0) -> Policy:
     """``(M, 20) observations -> (M, 3) actions`` acting for a rally player every decision."""
     if spec == "random":
-        rng = np.random.default_rng(seed)
-        return lambda obs: rng.uniform(-1.0, 1.0, (len(obs), 3))
+        return UniformRandom(3, seed)
     return load_network(spec, "mono")

@@ -81,6 +81,14 @@ CAMERAS: dict[str, CameraPose] = {
 }
 
 
+def fit_cameras(model: mujoco.MjModel, aspect: float) -> None:
+    """Refit every ``CAMERAS`` camera's vertical field of view to an image of this width /
+    height, so each keeps its span in view."""
+    for name, pose in CAMERAS.items():
+        cam = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, name)
+        model.cam_fovy[cam] = pose.fovy(aspect)
+
+
 def build_render_model(n_players: int, player: str = "simple") -> mujoco.MjModel:
     """court.xml + ``n_players`` players of kind ``player`` (``"simple"`` or ``"humanlike"``,
     named ``p0_``, ``p1_``) + ``shuttle``, cameras posed by ``CAMERAS``. SIMPLE players get one

@@ -10,7 +10,7 @@ import numpy as np
 
 from rallysim.core.game import Game
 from rallysim.render.hud import HudFont, draw_text, font_size_for
-from rallysim.render.model import CAMERAS, SHUTTLE_RGBA, build_render_model
+from rallysim.render.model import CAMERAS, SHUTTLE_RGBA, build_render_model, fit_cameras
 from rallysim.render.players import (
     PlayerRig,
     TargetDepth,
@@ -35,26 +35,33 @@ class SceneRenderer:
     landing depths, red discs on the floor) or ``"humanlike"`` (HUMAN-LIKE upper bodies, every
     joint and the hips copied; targets are racket velocities, red arrows from the racket head).
     ``camera`` defaults to ``"side"`` for SIMPLE and ``"three_quarter_close"`` for HUMAN-LIKE.
+
+    ``offscreen=False`` builds the world without an OpenGL renderer, for a live viewer that draws
+    ``model`` and ``data`` itself (``set_state`` works, the frame methods raise).
     """
 
     def __init__(self, n_players: int = 1, width: int = 640, height: int = 360,
                  camera: str | None = None, trail_length: int = TRAIL_LENGTH,
-                 player: str = "simple") -> None:
+                 player: str = "simple", offscreen: bool = True) -> None:
         camera = default_camera(player) if camera is None else camera
         if camera not in CAMERAS:
             raise ValueError(f"unknown camera {camera!r}; valid: {', '.join(map(repr, CAMERAS))}")
         self.n_players, self.width, self.height, self.camera = n_players, width, height, camera
         self.player = player
         self.model = build_render_model(n_players, player)
-        self._fit_cameras(width / height)
+        fit_cameras(self.model, width / height)
         # the offscreen buffer court.xml asks for (1280x720) must hold the image
         buf = self.model.vis.global_
         buf.offwidth, buf.offheight = max(buf.offwidth, width), max(buf.offheight, height)
         self.data = mujoco.MjData(self.model)
-        self._renderer = mujoco.Renderer(self.model, height, width)
-        # Free the GL context before interpreter shutdown tears down PyOpenGL: freeing an
-        # OSMesa context from a late __del__ fails with a noisy traceback.
-        self._finalizer = weakref.finalize(self, self._renderer.close)
+        self._renderer: mujoco.Renderer | None = None
+        if offscreen:
+            self._renderer = mujoco.Renderer(self.model, height, width)
+            # Free the GL context before interpreter shutdown tears down PyOpenGL: freeing an
+            # OSMesa context from a late __del__ fails with a noisy traceback.
+            self._finalizer = weakref.finalize(self, self._renderer.close)
+        else:
+            self._finalizer = weakref.finalize(self, lambda: None)
         self._camera_id = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_CAMERA, camera)
         self._shuttle_mocap = int(self.model.body_mocapid[
             mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_BODY, "shuttle")])
@@ -63,15 +70,12 @@ class SceneRenderer:
         self._font = HudFont(font_size_for(height))
         mujoco.mj_forward(self.model, self.data)
 
-    # -- set-up ----------------------------------------------------------------------------
-    def _fit_cameras(self, aspect: float) -> None:
-        for name, pose in CAMERAS.items():
-            cam = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_CAMERA, name)
-            self.model.cam_fovy[cam] = pose.fovy(aspect)
-
     @property
     def renderer(self) -> mujoco.Renderer:
         """The ``mujoco.Renderer`` underneath (for custom scene options or raw frames)."""
+        if self._renderer is None:
+            raise RuntimeError("this SceneRenderer was built with offscreen=False: it has no "
+                               "renderer and draws no frames")
         return self._renderer
 
     # -- state -----------------------------------------------------------------------------
@@ -125,7 +129,7 @@ class SceneRenderer:
 
     def render_current(self, hud_text: str | None = None) -> np.ndarray:
         """A frame of the state last set (``set_state`` or ``render``)."""
-        r = self._renderer
+        r = self.renderer
         r.update_scene(self.data, self._camera_id)
         self.rig.draw(r.scene)
         self.trail.draw(r.scene)

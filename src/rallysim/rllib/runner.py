@@ -11,7 +11,10 @@ same evaluations, same policy files). What a run leaves in ``out_dir``:
 | ``curve.json`` | per-iteration training returns and throughput, evaluations, env runner nodes |
 
 Unlike the SB3 path a run does not resume: RLlib's own checkpoints are pickles, which RallySim
-never loads, so an interrupted run starts again.
+never loads, and ``policy_step_*`` holds the actor alone (no critic, no optimiser), so an
+interrupted run starts again. ``curve.json`` is written last and in one step (renamed into
+place, ``rallysim.train.checkpoint.atomic_write``), as by the SB3 path: a run killed before it
+leaves none.
 """
 
 from __future__ import annotations
@@ -29,7 +32,7 @@ import numpy as np
 import yaml
 
 from rallysim.rllib import require_ray
-from rallysim.train.checkpoint import json_default
+from rallysim.train.checkpoint import atomic_write, json_default
 from rallysim.train.config import TrainConfig
 
 BACKEND = "rllib"
@@ -220,7 +223,8 @@ def train_stage_rllib(config: TrainConfig, out_dir: str | Path, address: str | N
         curve["train_wall_s"] = round(run.train_wall(), 2)
         curve["steps_per_s"] = round(curve["steps"] / max(curve["train_wall_s"], 1e-9), 1)
         run.export(out / "policy", final)
-        (out / "curve.json").write_text(json.dumps(curve, indent=1, default=json_default))
+        atomic_write(out / "curve.json",
+                     json.dumps(curve, indent=1, default=json_default).encode(), "curve")
         return curve
     finally:
         if algo is not None:

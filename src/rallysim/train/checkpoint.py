@@ -1,100 +1,112 @@
 """Training checkpoints: safetensors for every tensor, JSON for everything else, no pickle.
 
 A checkpoint of an SB3 PPO run is two files in ``RUN/checkpoints/``:
-``step_{decisions:012d}.safetensors`` (the policy's and the optimiser's tensors) and
-``step_{decisions:012d}.json`` (stage, config, decisions done, the optimiser's structure, the
-learning curve so far and a SHA-256 of the tensor file). Both are written to temporary names and
-renamed into place, the JSON last, so a run killed at any moment (even ``kill -9``) leaves only
-complete checkpoints behind and resumes from the newest, losing at most one interval.
+``step_{decisions:012d}.{digest}.safetensors`` (the policy's and the optimiser's tensors, named
+after the first 16 hex digits of their SHA-256) and ``step_{decisions:012d}.json`` (stage,
+config, decisions done, the optimiser's structure, the learning curve so far, the tensor file's
+name and SHA-256, and a SHA-256 of the JSON's own fields). The JSON is the commit record: the
+tensors are written first under their new name, then the JSON under a temporary name, renamed
+over the old one in one step. A save that repeats a step therefore never changes a tensor file
+that the previous JSON names (tensors equal to those are rewritten to the same bytes), and a run
+killed at any moment (even ``kill -9``) leaves every checkpoint JSON naming a complete tensor
+file that matches it. ``resume`` takes the newest intact checkpoint and says which
+ones it skipped and why.
+
+``write_pair``/``read_pair`` are the same machinery for other resumable state (the warm start's,
+``rallysim.train.warm_start``).
+
+Test hook: with ``RALLYSIM_CRASH_AT=LABEL:N`` in the environment the process kills itself
+(SIGKILL) the N-th time it reaches the write point ``LABEL`` (``crash_point``), so that tests can
+kill a run exactly between two writes. Labels: ``{kind}.tensors.tmp`` (tensors written under the
+temporary name), ``{kind}.tensors`` (tensors in place, JSON not written), ``{kind}.json.tmp``
+(JSON written, not yet renamed), ``{kind}.json`` (renamed, older checkpoints not yet pruned) and
+``{kind}.saved`` (pruned), with ``kind`` ``checkpoint`` for PPO and ``warm`` for the warm start;
+``warm.data.tmp`` and ``warm.data`` for a round's dataset.
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import re
+import signal
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from rallysim import jsondoc
+from rallysim.jsondoc import type_name
+
 FORMAT = "rallysim-train-checkpoint"
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
+READABLE_VERSIONS = (1, 2)  # version 1: no checksum of the JSON, one tensor file per step
+MAX_DECISIONS = 10**12 - 1  # the file name holds 12 digits
 _NAME = re.compile(r"step_(\d{12})\.json$")
+CRASH_AT = "RALLYSIM_CRASH_AT"
+_crash_counts: dict[str, int] = {}
+
+Say = Callable[[str], None]
 
 
 class CheckpointError(ValueError):
     """A checkpoint that cannot be used: corrupted, truncated or made for another run."""
 
 
-def _atomic_write(path: Path, data: bytes) -> None:
-    tmp = path.with_name(path.name + ".tmp")
+class CheckpointMismatch(CheckpointError):
+    """An intact checkpoint made with other settings: the folder belongs to another run, so no
+    older checkpoint is tried in its place."""
+
+
+def crash_point(label: str) -> None:
+    """Kill this process (SIGKILL) if ``RALLYSIM_CRASH_AT`` asks for ``label`` and this is the
+    N-th time it is reached (tests of what a ``kill -9`` between two writes leaves)."""
+    spec = os.environ.get(CRASH_AT)
+    if not spec:
+        return
+    target, _, nth = spec.rpartition(":")
+    if target != label:
+        return
+    _crash_counts[label] = _crash_counts.get(label, 0) + 1
+    if str(_crash_counts[label]) == nth.strip():
+        os.kill(os.getpid(), getattr(signal, "SIGKILL", signal.SIGTERM))
+
+
+def _fsync_dir(folder: Path) -> None:
+    # the rename itself must survive a power cut, not only the file's bytes
+    try:
+        fd = os.open(folder, os.O_RDONLY)
+    except OSError:  # Windows cannot open folders
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)
+
+
+def atomic_write(path: Path, data: bytes, label: str | None = None) -> None:
+    """Write ``data`` to ``path`` through a temporary file renamed into place: readers see the
+    old file or the new one, never a part. ``label``: the write point's name (``crash_point``)."""
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     with open(tmp, "wb") as f:
         f.write(data)
         f.flush()
         os.fsync(f.fileno())
+    if label:
+        crash_point(f"{label}.tmp")
     os.replace(tmp, path)
+    _fsync_dir(path.parent)
+    if label:
+        crash_point(label)
 
 
-def _flatten_optimizer(state: dict[str, Any]) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
-    """A torch optimiser ``state_dict`` -> (tensors, JSON-able structure)."""
-    tensors: dict[str, np.ndarray] = {}
-    layout: dict[str, dict[str, Any]] = {}
-    for pid, slots in state["state"].items():
-        layout[str(pid)] = {}
-        for key, value in slots.items():
-            if hasattr(value, "detach"):
-                tensors[f"optimizer.{pid}.{key}"] = value.detach().cpu().numpy()
-                layout[str(pid)][key] = "tensor"
-            else:
-                layout[str(pid)][key] = value
-    groups = [{k: v for k, v in g.items()} for g in state["param_groups"]]
-    return tensors, {"state": layout, "param_groups": groups}
-
-
-def _unflatten_optimizer(tensors: dict[str, np.ndarray], doc: dict[str, Any]) -> dict[str, Any]:
-    import torch
-
-    state: dict[int, dict[str, Any]] = {}
-    for pid, slots in doc["state"].items():
-        state[int(pid)] = {
-            key: torch.from_numpy(np.array(tensors[f"optimizer.{pid}.{key}"]))
-            if value == "tensor" else value
-            for key, value in slots.items()
-        }
-    return {"state": state, "param_groups": doc["param_groups"]}
-
-
-def save_checkpoint(run_dir: Path, model: Any, meta: dict[str, Any], keep: int = 3) -> Path:
-    """Write the PPO ``model``'s policy and optimiser at ``model.num_timesteps`` decisions,
-    keeping the newest ``keep`` checkpoints."""
-    from safetensors.numpy import save
-
-    from rallysim.policies.mlp import sha256_file
-
-    folder = Path(run_dir) / "checkpoints"
-    folder.mkdir(parents=True, exist_ok=True)
-    step = int(model.num_timesteps)
-    tensors = {f"policy.{k}": v.detach().cpu().numpy()
-               for k, v in model.policy.state_dict().items()}
-    opt_tensors, opt_doc = _flatten_optimizer(model.policy.optimizer.state_dict())
-    tensors.update(opt_tensors)
-    weights = folder / f"step_{step:012d}.safetensors"
-    _atomic_write(weights, save({k: np.ascontiguousarray(v) for k, v in tensors.items()}))
-    doc = {"format": FORMAT, "format_version": FORMAT_VERSION, "decisions": step,
-           "weights": weights.name, "weights_sha256": sha256_file(weights),
-           "optimizer": opt_doc, **meta}
-    path = folder / f"step_{step:012d}.json"
-    _atomic_write(path, json.dumps(doc, indent=1, default=json_default).encode())
-    _prune(folder, keep)
-    return path
-
-
-def _prune(folder: Path, keep: int) -> None:
-    found = sorted((int(m.group(1)), p) for p in folder.iterdir() if (m := _NAME.search(p.name)))
-    for _, old in found[:-keep]:
-        old.unlink(missing_ok=True)
-        old.with_suffix(".safetensors").unlink(missing_ok=True)
+def sha256_bytes(data: bytes) -> str:
+    return hashlib.sha256(data).hexdigest()
 
 
 def json_default(value: Any) -> Any:
@@ -107,59 +119,341 @@ def json_default(value: Any) -> Any:
     raise TypeError(f"not JSON serialisable: {type(value).__name__}")
 
 
-def latest_checkpoint(run_dir: Path) -> Path | None:
-    """The newest checkpoint JSON of a run (by decisions), or None."""
+def plain_json(value: Any) -> Any:
+    """``value`` as it reads back from JSON (tuples as lists, NumPy values as Python ones)."""
+    return json.loads(json.dumps(value, default=json_default))
+
+
+def meta_digest(doc: dict[str, Any]) -> str:
+    """SHA-256 of a checkpoint JSON's fields (all but ``meta_sha256``), key order aside."""
+    fields = {k: v for k, v in doc.items() if k != "meta_sha256"}
+    canonical = json.dumps(fields, sort_keys=True, separators=(",", ":"), default=json_default)
+    return sha256_bytes(canonical.encode())
+
+
+# --- the optimiser's state as tensors + a JSON structure ---------------------------------
+
+def flatten_optimizer(state: dict[str, Any], prefix: str = "optimizer"
+                      ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+    """A torch optimiser ``state_dict`` -> (tensors, JSON-able structure)."""
+    tensors: dict[str, np.ndarray] = {}
+    layout: dict[str, dict[str, Any]] = {}
+    for pid, slots in state["state"].items():
+        layout[str(pid)] = {}
+        for key, value in slots.items():
+            if hasattr(value, "detach"):
+                tensors[f"{prefix}.{pid}.{key}"] = value.detach().cpu().numpy()
+                layout[str(pid)][key] = "tensor"
+            else:
+                layout[str(pid)][key] = value
+    groups = [dict(g) for g in state["param_groups"]]
+    return tensors, {"state": layout, "param_groups": groups}
+
+
+def unflatten_optimizer(tensors: dict[str, np.ndarray], doc: dict[str, Any], source: Path,
+                        prefix: str = "optimizer") -> dict[str, Any]:
+    """The inverse of ``flatten_optimizer``; ``source`` names the file in errors."""
+    import torch
+
+    state: dict[int, dict[str, Any]] = {}
+    for pid, slots in doc["state"].items():
+        if not isinstance(slots, dict) or not pid.isdigit():
+            raise CheckpointError(f"checkpoint {source}: field optimizer.state.{pid} must map "
+                                  "slot names to values")
+        state[int(pid)] = {}
+        for key, value in slots.items():
+            if value != "tensor":
+                state[int(pid)][key] = value
+                continue
+            name = f"{prefix}.{pid}.{key}"
+            if name not in tensors:
+                raise CheckpointError(f"checkpoint {source}: field optimizer.state.{pid}.{key} "
+                                      f"names tensor {name}, which its tensor file lacks")
+            state[int(pid)][key] = torch.from_numpy(np.array(tensors[name]))
+    return {"state": state, "param_groups": doc["param_groups"]}
+
+
+def load_optimizer(optimizer: Any, tensors: dict[str, np.ndarray], doc: dict[str, Any],
+                   source: Path, prefix: str = "optimizer") -> None:
+    """Put a saved optimiser state into ``optimizer`` or raise ``CheckpointError``."""
+    state = unflatten_optimizer(tensors, doc, source, prefix)
+    try:
+        optimizer.load_state_dict(state)
+    except (ValueError, KeyError, TypeError, RuntimeError) as err:
+        raise CheckpointError(f"checkpoint {source}: field optimizer does not fit this "
+                              f"network's optimiser: {err}") from None
+
+
+# --- writing -------------------------------------------------------------------------------
+
+def write_pair(folder: Path, stem: str, tensors: dict[str, np.ndarray], doc: dict[str, Any],
+               kind: str) -> Path:
+    """Write ``stem.{digest}.safetensors`` (``tensors``) and then ``stem.json`` (``doc`` with
+    the tensor file's name and SHA-256 and the JSON's own checksum), the JSON renamed over any
+    older one in one step. Returns the JSON's path. ``kind`` prefixes the write points' labels."""
+    from safetensors.numpy import save
+
+    folder.mkdir(parents=True, exist_ok=True)
+    data = save({k: np.ascontiguousarray(v) for k, v in tensors.items()})
+    digest = sha256_bytes(data)
+    weights = folder / f"{stem}.{digest[:16]}.safetensors"
+    atomic_write(weights, data, f"{kind}.tensors")
+    doc = plain_json({**doc, "weights": weights.name, "weights_sha256": digest})
+    doc["meta_sha256"] = meta_digest(doc)
+    path = folder / f"{stem}.json"
+    atomic_write(path, json.dumps(doc, indent=1).encode(), f"{kind}.json")
+    return path
+
+
+def save_checkpoint(run_dir: Path, model: Any, meta: dict[str, Any], keep: int = 3) -> Path:
+    """Write the PPO ``model``'s policy and optimiser at ``model.num_timesteps`` decisions,
+    keeping the newest ``keep`` checkpoints."""
+    folder = Path(run_dir) / "checkpoints"
+    step = int(model.num_timesteps)
+    tensors = {f"policy.{k}": v.detach().cpu().numpy()
+               for k, v in model.policy.state_dict().items()}
+    opt_tensors, opt_doc = flatten_optimizer(model.policy.optimizer.state_dict())
+    tensors.update(opt_tensors)
+    doc = {"format": FORMAT, "format_version": FORMAT_VERSION, "decisions": step,
+           "optimizer": opt_doc, **meta}
+    path = write_pair(folder, f"step_{step:012d}", tensors, doc, "checkpoint")
+    prune(folder, _NAME, keep, ("step_",))
+    crash_point("checkpoint.saved")
+    return path
+
+
+def _referenced(path: Path) -> str | None:
+    """The tensor file a checkpoint JSON names, or None when it cannot be read."""
+    try:
+        doc = json.loads(path.read_bytes().decode("utf-8"))
+        name = doc["weights"] if isinstance(doc, dict) else None
+    except (OSError, ValueError, KeyError):
+        return None
+    return name if isinstance(name, str) else None
+
+
+def prune(folder: Path, pattern: re.Pattern[str], keep: int, owned: tuple[str, ...],
+          extra: Callable[[Path], list[str]] | None = None) -> None:
+    """Keep the newest ``keep`` JSONs matching ``pattern`` (by the number in their name) and
+    the tensor files they name; remove older ones, tensor files whose names start with one of
+    ``owned`` that no kept JSON names (a save killed between its two writes, a step saved
+    again) and leftover temporary files. ``extra``: more files a kept JSON needs."""
+    found = sorted((int(m.group(1)), p) for p in folder.iterdir()
+                   if (m := pattern.search(p.name)))
+    kept = [p for _, p in found[-keep:]]
+    for _, old in found[:-keep]:
+        old.unlink(missing_ok=True)
+    needed: set[str] = set()
+    for path in kept:
+        name = _referenced(path)
+        if name is None:  # unreadable: keep whatever it may name
+            needed |= {p.name for p in folder.glob(f"{path.stem}.*")}
+        else:
+            needed.add(name)
+        if extra is not None:
+            needed |= set(extra(path))
+    for p in folder.iterdir():
+        if not p.is_file() or p.name in needed:
+            continue
+        leftover = p.name.startswith(".") and p.name.endswith(".tmp")
+        if leftover or (p.suffix == ".safetensors" and p.name.startswith(owned)):
+            p.unlink(missing_ok=True)
+
+
+def remove_checkpoints(run_dir: Path) -> int:
+    """Remove a run's checkpoints (a restart); the number of checkpoint JSONs removed."""
+    import shutil
+
     folder = Path(run_dir) / "checkpoints"
     if not folder.is_dir():
-        return None
-    found = sorted((int(m.group(1)), p) for p in folder.iterdir()
-                   if (m := _NAME.search(p.name)))
-    return found[-1][1] if found else None
+        return 0
+    count = sum(1 for p in folder.iterdir() if _NAME.search(p.name))
+    shutil.rmtree(folder)
+    return count
 
 
-def read_checkpoint(path: Path, expect: dict[str, Any] | None = None,
-                    ) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
-    """Load and verify a checkpoint; ``expect`` lists JSON fields that must match (e.g. the
-    stage and the network). Raises ``CheckpointError`` saying what is wrong."""
-    from safetensors.numpy import load_file
+# --- reading -------------------------------------------------------------------------------
 
-    from rallysim.policies.mlp import sha256_file
+def require(doc: dict[str, Any], field: str, kind: type | tuple[type, ...], source: Path,
+            where: str = "") -> Any:
+    """``doc[field]`` of ``kind``, or a ``CheckpointError`` naming ``source`` and the field."""
+    return jsondoc.require(doc, field, kind, source, "checkpoint", CheckpointError, where)
+
+
+def require_count(doc: dict[str, Any], field: str, source: Path, where: str = "",
+                  most: int = MAX_DECISIONS) -> int:
+    """An integer field in [0, ``most``]."""
+    value = require(doc, field, int, source, where)
+    if not 0 <= value <= most:
+        raise CheckpointError(f"checkpoint {source}: field {where}{field} = {value} is outside "
+                              f"[0, {most:,}]")
+    return value
+
+
+def read_json(path: Path) -> dict[str, Any]:
+    """A checkpoint JSON's object, or a ``CheckpointError`` saying why it cannot be one."""
+    return jsondoc.read_object(path, "checkpoint", CheckpointError)
+
+
+def read_pair(path: Path, form: str, versions: tuple[int, ...],
+              check: Callable[[dict[str, Any], Path], None] | None = None,
+              expect: dict[str, Any] | None = None,
+              ) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+    """Load and verify a JSON + tensor file pair written by ``write_pair``: its format, its
+    fields (``check`` raises on a bad one), the JSON's checksum, the ``expect``ed fields, the
+    tensors' checksum. ``CheckpointMismatch`` when only ``expect`` fails."""
+    from safetensors.numpy import load
 
     path = Path(path)
-    try:
-        doc = json.loads(path.read_text())
-    except (OSError, json.JSONDecodeError) as err:
-        raise CheckpointError(f"checkpoint {path} is unreadable or corrupted: {err}") from None
-    if doc.get("format") != FORMAT or doc.get("format_version") != FORMAT_VERSION:
-        raise CheckpointError(f"{path} is not a {FORMAT} v{FORMAT_VERSION} checkpoint")
-    weights = path.with_name(doc["weights"])
-    if not weights.is_file():
-        raise CheckpointError(f"checkpoint {path} lacks its tensor file {weights.name}")
-    if sha256_file(weights) != doc["weights_sha256"]:
-        raise CheckpointError(f"checkpoint tensors {weights} are corrupted (SHA-256 differs "
-                              "from the one recorded in its JSON)")
+    doc = read_json(path)
+    if doc.get("format") != form or doc.get("format_version") not in versions:
+        found = f"{doc.get('format')!r} v{doc.get('format_version')!r}"
+        raise CheckpointError(f"{path} is not a {form} checkpoint of version "
+                              f"{' or '.join(map(str, versions))} (fields format and "
+                              f"format_version: {found})")
+    name = require(doc, "weights", str, path)
+    if Path(name).name != name or name.startswith("."):
+        raise CheckpointError(f"checkpoint {path}: field weights must name a file beside it, "
+                              f"found {name!r}")
+    digest = require(doc, "weights_sha256", str, path)
+    # the fields first: a damaged one is then named, not only found by the checksum
+    if check is not None:
+        check(doc, path)
+    if doc["format_version"] >= 2:
+        recorded = require(doc, "meta_sha256", str, path)
+        if meta_digest(doc) != recorded:
+            raise CheckpointError(f"checkpoint {path} is corrupted: its fields' SHA-256 differs "
+                                  "from the one recorded in field meta_sha256")
     for key, value in (expect or {}).items():
-        if json.loads(json.dumps(doc.get(key), default=json_default)) != json.loads(
-                json.dumps(value, default=json_default)):
-            raise CheckpointError(f"checkpoint {path} was made with {key}={doc.get(key)!r}, "
-                                  f"this run has {key}={value!r}: use another --out folder "
-                                  "or the same settings")
+        if plain_json(doc.get(key)) != plain_json(value):
+            raise CheckpointMismatch(f"checkpoint {path} was made with {key}={doc.get(key)!r}, "
+                                     f"this run has {key}={value!r}: use another --out folder, "
+                                     "the same settings or --restart")
+    weights = path.with_name(name)
     try:
-        tensors = load_file(str(weights))
+        data = weights.read_bytes()
+    except OSError:
+        raise CheckpointError(f"checkpoint {path} lacks its tensor file {name} (field "
+                              "weights)") from None
+    if sha256_bytes(data) != digest:
+        raise CheckpointError(f"checkpoint tensors {weights} are corrupted (SHA-256 differs "
+                              f"from field weights_sha256 of {path.name})")
+    try:
+        tensors = load(data)
     except Exception as err:  # safetensors raises its own error types
         raise CheckpointError(f"checkpoint tensors {weights} are corrupted: {err}") from None
     return doc, tensors
 
 
-def restore(model: Any, doc: dict[str, Any], tensors: dict[str, np.ndarray]) -> None:
+def _check_ppo(doc: dict[str, Any], path: Path) -> None:
+    """The fields a PPO checkpoint's resume reads, with their types."""
+    decisions = require_count(doc, "decisions", path)
+    m = _NAME.search(path.name)
+    if m and int(m.group(1)) != decisions:
+        raise CheckpointError(f"checkpoint {path}: field decisions = {decisions} disagrees "
+                              f"with its file name (step {int(m.group(1))})")
+    require(doc, "stage", str, path)
+    require(doc, "network", dict, path)
+    optimizer = require(doc, "optimizer", dict, path)
+    state = require(optimizer, "state", dict, path, "optimizer.")
+    for pid in state:
+        if not pid.isdigit():
+            raise CheckpointError(f"checkpoint {path}: field optimizer.state.{pid} must be "
+                                  "keyed by a parameter number")
+        require(state, pid, dict, path, "optimizer.state.")
+    groups = require(optimizer, "param_groups", list, path, "optimizer.")
+    for i, group in enumerate(groups):
+        if not isinstance(group, dict):
+            raise CheckpointError(f"checkpoint {path}: field optimizer.param_groups[{i}] must "
+                                  f"be object, found {type_name(group)}")
+    curve = require(doc, "curve", dict, path)
+    for key in ("evals", "rollouts"):
+        if key in curve:
+            rows = require(curve, key, list, path, "curve.")
+            for i, row in enumerate(rows):
+                if not isinstance(row, dict) or not isinstance(row.get("steps"), int):
+                    raise CheckpointError(f"checkpoint {path}: field curve.{key}[{i}] must be "
+                                          "an object with an integer steps")
+    if "decisions" in curve:
+        require_count(curve, "decisions", path, "curve.")
+    if "train_wall_s" in curve:
+        require(curve, "train_wall_s", float, path, "curve.")
+    if "warm_start" in curve:
+        require(curve, "warm_start", dict, path, "curve.")
+
+
+def read_checkpoint(path: Path, expect: dict[str, Any] | None = None,
+                    ) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+    """Load and verify a checkpoint; ``expect`` lists JSON fields that must match (e.g. the
+    stage and the network). Raises ``CheckpointError`` naming the file and the field."""
+    return read_pair(path, FORMAT, READABLE_VERSIONS, _check_ppo, expect)
+
+
+def checkpoints(folder: Path, pattern: re.Pattern[str] = _NAME) -> list[Path]:
+    """The checkpoint JSONs in ``folder`` (a run's ``checkpoints/``), newest (the highest
+    number in their name) first."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        return []
+    found = [(int(m.group(1)), p) for p in folder.iterdir() if (m := pattern.search(p.name))]
+    return [p for _, p in sorted(found, reverse=True)]
+
+
+def latest_checkpoint(run_dir: Path) -> Path | None:
+    """The newest checkpoint JSON of a run (by decisions), or None."""
+    found = checkpoints(Path(run_dir) / "checkpoints")
+    return found[0] if found else None
+
+
+def newest_intact(paths: list[Path], load: Callable[[Path], Any], say: Say) -> Any:
+    """``load`` each of ``paths`` (newest first) until one succeeds and return its result
+    (None when there are no paths); ``say`` a line for each one skipped and why.
+    ``CheckpointMismatch`` is not skipped: the folder belongs to another run. When every one
+    fails: a ``CheckpointError`` listing them."""
+    skipped: list[str] = []
+    for path in paths:
+        try:
+            result = load(path)
+        except CheckpointMismatch:
+            raise
+        except CheckpointError as err:
+            say(f"skipping checkpoint {path.name}: {err}")
+            skipped.append(f"{path.name}: {err}")
+            continue
+        if skipped:
+            say(f"resuming from the newest intact checkpoint, {path.name}, instead")
+        return result
+    if skipped:
+        raise CheckpointError(f"no intact checkpoint in {paths[0].parent} ({'; '.join(skipped)})"
+                              ": remove them or train again with --restart")
+    return None
+
+
+def resume(model: Any, run_dir: Path, expect: dict[str, Any], say: Say,
+           ) -> tuple[Path, dict[str, Any]] | None:
+    """Restore the newest intact checkpoint of ``run_dir`` into PPO ``model``; (its path, its
+    JSON), or None when the run has none."""
+    def load(path: Path) -> tuple[Path, dict[str, Any]]:
+        doc, tensors = read_checkpoint(path, expect)
+        restore(model, doc, tensors, path)
+        return path, doc
+
+    found: tuple[Path, dict[str, Any]] | None = newest_intact(
+        checkpoints(Path(run_dir) / "checkpoints"), load, say)
+    return found
+
+
+def restore(model: Any, doc: dict[str, Any], tensors: dict[str, np.ndarray],
+            source: Path | None = None) -> None:
     """Put a checkpoint's policy and optimiser state into a freshly built PPO ``model``."""
     import torch
 
+    where = Path(source or "(unnamed)")
     policy_state = {k[len("policy."):]: torch.from_numpy(np.array(v))
                     for k, v in tensors.items() if k.startswith("policy.")}
     try:
         model.policy.load_state_dict(policy_state)
     except RuntimeError as err:
-        raise CheckpointError(f"checkpoint does not fit this network: {err}") from None
-    model.policy.optimizer.load_state_dict(_unflatten_optimizer(tensors, doc["optimizer"]))
+        raise CheckpointError(f"checkpoint {where} does not fit this network: {err}") from None
+    load_optimizer(model.policy.optimizer, tensors, doc["optimizer"], where)
     model.num_timesteps = int(doc["decisions"])

@@ -7,14 +7,24 @@ Precedence: the stage's packaged YAML < the player's packaged YAML for that stag
 
 from __future__ import annotations
 
+import math
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, fields, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, get_type_hints
 
 import yaml
 
+from rallysim.core.shuttle import SHUTTLE_MODELS
+
 STAGES = ("low", "high", "mono")
 CONFIG_DIR = Path(__file__).parent / "configs"
+# the low stage's ``incoming`` values; a copy of envs.simple_return_v0.INCOMING (a test keeps
+# them equal) because importing the environment here would load MuJoCo for every config read
+INCOMING = ("serve", "mixed", "rally")
+# seeds feed numpy's legacy seeding (below 2**32) after offsets such as the evaluation's
+# + 1_000_003; the int32 range leaves room for those
+SEED_MAX = 2**31 - 1
 
 
 @dataclass(frozen=True)
@@ -69,22 +79,28 @@ class TrainConfig:
     warm_start_lr_decay: bool = False  # cosine decay of the clone's learning rate
 
     def __post_init__(self) -> None:
-        if self.stage not in STAGES:
-            raise ValueError(f"unknown stage {self.stage!r}; valid: {', '.join(STAGES)}")
-        if self.env not in ("simple", "humanlike"):
-            raise ValueError(f"env must be 'simple' or 'humanlike', got {self.env!r}")
+        # every value is checked here, so a bad one fails at construction (and at every
+        # ``replace``), naming the field, instead of deep inside SB3 or after hours of training
+        if isinstance(self.net_arch, list):  # as to_dict() writes it: keep the config hashable
+            object.__setattr__(self, "net_arch", tuple(self.net_arch))
+        for f in fields(self):
+            _check_type(f.name, _FIELD_KINDS[f.name], getattr(self, f.name))
+        for name, valid in _CHOICES.items():
+            if getattr(self, name) not in valid:
+                raise ValueError(f"{name} must be one of {', '.join(map(repr, valid))}, got "
+                                 f"{getattr(self, name)!r}")
         if self.env == "humanlike" and self.stage == "mono":
             raise ValueError("the HUMAN-LIKE player has low and high stages (no monolithic)")
-        if self.activation not in ("tanh", "relu"):
-            raise ValueError(f"activation must be 'tanh' or 'relu', got {self.activation!r}")
-        for name in ("decisions", "n_envs", "n_steps", "batch_size", "n_epochs",
-                     "eval_episodes", "checkpoint_every"):
-            # decisions = 0 with a warm start: the clone is the policy (no PPO after it)
-            floor = 0 if name == "decisions" and self.warm_start != "none" else 1
-            if getattr(self, name) < floor:
-                raise ValueError(f"{name} must be >= {floor}, got {getattr(self, name)}")
-        if self.warm_start not in ("none", "scripted"):
-            raise ValueError(f"warm_start must be 'none' or 'scripted', got {self.warm_start!r}")
+        # decisions = 0 with a warm start: the clone is the policy (no PPO after it)
+        floor = 0 if self.warm_start != "none" else 1
+        if self.decisions < floor:
+            raise ValueError(f"decisions must be >= {floor}, got {self.decisions}")
+        for name, (ok, bounds) in _BOUNDS.items():
+            value = getattr(self, name)
+            if value is not None and not ok(value):
+                raise ValueError(f"{name} must be {bounds}, got {value!r}")
+        if any(width < 1 for width in self.net_arch):
+            raise ValueError(f"net_arch layer widths must be >= 1, got {list(self.net_arch)}")
         if self.warm_start != "none" and self.stage != "low":
             raise ValueError("warm_start applies to the low stage only")
         if self.stage == "mono" and self.n_envs % 2:
@@ -117,9 +133,101 @@ class TrainConfig:
         return d
 
 
+def _at_least(low: float) -> tuple[Callable[[Any], bool], str]:
+    return (lambda v: v >= low), f">= {low:g}"
+
+
+def _above(low: float) -> tuple[Callable[[Any], bool], str]:
+    return (lambda v: v > low), f"> {low:g}"
+
+
+def _within(low: float, high: float) -> tuple[Callable[[Any], bool], str]:
+    return (lambda v: low <= v <= high), f"in [{low:g}, {high:g}]"
+
+
+_CHOICES: dict[str, tuple[str, ...]] = {
+    "stage": STAGES, "env": ("simple", "humanlike"), "shuttle": tuple(SHUTTLE_MODELS),
+    "activation": ("tanh", "relu"), "incoming": INCOMING, "warm_start": ("none", "scripted"),
+}
+# the range of every bounded number (``decisions`` depends on warm_start: __post_init__);
+# a value of None (target_kl) means "off" and is not bounded
+_BOUNDS: dict[str, tuple[Callable[[Any], bool], str]] = {
+    "seed": (lambda v: 0 <= v <= SEED_MAX, f"in [0, {SEED_MAX}]"),
+    "eval_seed": (lambda v: 0 <= v <= SEED_MAX, f"in [0, {SEED_MAX}]"),
+    "n_envs": _at_least(1), "n_steps": _at_least(1), "batch_size": _at_least(1),
+    "n_epochs": _at_least(1), "target_kl": _above(0), "learning_rate": _above(0),
+    # a discount or GAE lambda above 1 lets returns grow without bound
+    "gamma": _within(0, 1), "gae_lambda": _within(0, 1),
+    "clip_range": _above(0), "ent_coef": _at_least(0), "vf_coef": _at_least(0),
+    "max_grad_norm": _above(0), "torch_threads": _at_least(1),
+    "eval_every": _at_least(0),  # 0: evaluate only at the end
+    "eval_episodes": _at_least(1), "checkpoint_every": _at_least(1),
+    "warm_start_decisions": _at_least(1), "warm_start_epochs": _at_least(1),
+    "warm_start_dagger": _at_least(0), "warm_start_batch_size": _at_least(1),
+}
+
+
+def _kind(hint: Any) -> str:
+    """The check a field's annotation asks for: int, float, bool, str, float|None, widths."""
+    if hint in (int, float, bool, str):
+        return hint.__name__
+    if hint == float | None:
+        return "float|None"
+    if hint == tuple[int, ...]:
+        return "widths"
+    raise TypeError(f"TrainConfig has no check for the annotation {hint!r}")
+
+
+_FIELD_KINDS = {name: _kind(hint) for name, hint in get_type_hints(TrainConfig).items()}
+
+
+def _check_type(name: str, kind: str, value: Any) -> None:
+    # bool is an int subclass in Python: True must not pass as n_envs=1
+    is_int = isinstance(value, int) and not isinstance(value, bool)
+    if kind == "int" and not is_int:
+        raise ValueError(f"{name} must be an integer, got {value!r}")
+    if kind in ("float", "float|None") and not (kind == "float|None" and value is None):
+        if not (is_int or isinstance(value, float)):
+            raise ValueError(f"{name} must be a number, got {value!r}")
+        if not math.isfinite(value):
+            raise ValueError(f"{name} must be finite, got {value!r}")
+    if kind == "bool" and not isinstance(value, bool):
+        raise ValueError(f"{name} must be true or false, got {value!r}")
+    if kind == "str" and not (isinstance(value, str) and value):
+        raise ValueError(f"{name} must be a non-empty string, got {value!r}")
+    if kind == "widths" and not (isinstance(value, tuple) and all(
+            isinstance(v, int) and not isinstance(v, bool) for v in value)):
+        shown = list(value) if isinstance(value, tuple) else value
+        raise ValueError(f"net_arch must be a list of integer layer widths, got {shown!r}")
+
+
 def _coerce(key: str, value: Any) -> Any:
-    if key == "net_arch":
-        return tuple(int(v) for v in value)
+    """A value read from YAML or ``--set`` as its field's type where the text is unambiguous.
+
+    PyYAML reads ``3e-4`` (no dot) and ``1e6`` as strings and ``2.0`` as a float; those are
+    what a user means as a learning rate or a budget. Anything else passes unchanged, for
+    ``TrainConfig`` to reject with the field's name."""
+    kind = _FIELD_KINDS.get(key)
+    if kind == "widths" and isinstance(value, list | tuple):
+        return tuple(_as_int(v) for v in value)
+    if kind == "int":
+        return _as_int(value)
+    if kind in ("float", "float|None") and isinstance(value, str):
+        try:
+            return float(value)
+        except ValueError:
+            return value
+    return value
+
+
+def _as_int(value: Any) -> Any:
+    if isinstance(value, str):
+        try:
+            value = float(value)
+        except ValueError:
+            return value
+    if isinstance(value, float) and value.is_integer():
+        return int(value)
     return value
 
 
@@ -139,7 +247,8 @@ def load_config(stage: str, path: str | Path | None = None,
         values.update(_read_yaml(player))
     values.update(user)
     values.update(overrides or {})
-    unknown = sorted(set(values) - valid)
+    # keys as text: a YAML key may be a number or null, which do not sort with strings
+    unknown = sorted(map(str, set(values) - valid))
     if unknown:
         raise ValueError(f"unknown setting(s) {unknown}; valid: {sorted(valid)}")
     if values.get("stage") != stage:
@@ -152,6 +261,8 @@ def _read_yaml(source: Path) -> dict[str, Any]:
         data = yaml.safe_load(source.read_text()) or {}
     except FileNotFoundError:
         raise FileNotFoundError(f"config file {source} does not exist") from None
+    except UnicodeDecodeError:
+        raise ValueError(f"config file {source} is not text (UTF-8 YAML)") from None
     except yaml.YAMLError as err:
         raise ValueError(f"config file {source} is not valid YAML: {err}") from None
     if not isinstance(data, dict):
@@ -166,5 +277,10 @@ def parse_overrides(items: list[str]) -> dict[str, Any]:
         key, sep, value = item.partition("=")
         if not sep or not key:
             raise ValueError(f"--set takes KEY=VALUE, got {item!r}")
-        out[key.strip()] = yaml.safe_load(value)
+        try:
+            out[key.strip()] = yaml.safe_load(value)
+        except yaml.YAMLError as err:
+            problem = " ".join(str(err).split())  # PyYAML's message spans several lines
+            raise ValueError(f"--set {key.strip()}: {value!r} is not a YAML value: "
+                             f"{problem}") from None
     return out

@@ -6,6 +6,7 @@ What a run leaves in ``out_dir``:
 |---|---|
 | ``config.yaml`` | the resolved configuration |
 | ``checkpoints/step_*.{safetensors,json}`` | resumable state every ``checkpoint_every`` steps |
+| ``checkpoints/warm_start/`` | the warm start's resumable state, until the first PPO checkpoint |
 | ``policy.{safetensors,json}`` | the final deterministic actor (``rallysim.policies.mlp``) |
 | ``curve.json`` | evaluations and per-rollout training returns, with wall times |
 | ``tb/`` | TensorBoard logs (``tensorboard --logdir out_dir/tb``) |
@@ -14,15 +15,19 @@ Progress: a bar with ETA when stderr is a terminal; otherwise (a log, CI, ``repr
 line at least every 30 s with the stage, seed, phase, steps, rate and ETA
 (``rallysim.train.progress``).
 
-A run started again on the same ``out_dir`` resumes from its newest checkpoint (after any
-interruption, ``kill -9`` included), losing at most one checkpoint interval; a checkpoint made
-with another stage or network is refused with a clear error.
+A run started again on the same ``out_dir`` resumes from its newest intact checkpoint (after
+any interruption, ``kill -9`` included), losing at most one checkpoint interval; it names any
+damaged checkpoint it skips. A checkpoint made with another stage or network is refused with a
+clear error. The warm start keeps its own state in ``checkpoints/warm_start/`` (every round's
+dataset, the clone after every epoch: ``rallysim.train.warm_start``) until the first PPO
+checkpoint supersedes it; ``resume=False`` removes every checkpoint first.
 """
 
 from __future__ import annotations
 
 import json
 import math
+import shutil
 import sys
 import time
 from pathlib import Path
@@ -125,6 +130,8 @@ class _Monitor:
         ckpt.save_checkpoint(self.out, model, {
             "stage": self.config.stage, "network": self.config.network(),
             "config": self.config.to_dict(), "curve": self.curve})
+        # the PPO checkpoint holds the clone and its results: the warm start's state is spent
+        shutil.rmtree(warm_start_dir(self.out), ignore_errors=True)
 
 
 def build_model(config: TrainConfig, out: Path) -> Any:
@@ -152,25 +159,37 @@ def train_stage(config: TrainConfig, out_dir: str | Path, resume: bool = True,
         return _train_stage(config, Path(out_dir), resume, progress, beat)
 
 
+def warm_start_dir(out: Path) -> Path:
+    """Where a run's warm start keeps its resumable state."""
+    return out / "checkpoints" / "warm_start"
+
+
 def _train_stage(config: TrainConfig, out: Path, resume: bool, progress: bool,
                  beat: Heartbeat | None) -> dict[str, Any]:
     out.mkdir(parents=True, exist_ok=True)
+    # warnings (a damaged checkpoint skipped) are shown even without progress output
+    warn = beat.say if beat is not None else say_stderr
+    note = warn if progress or beat is not None else None
+    if not resume and (removed := ckpt.remove_checkpoints(out)) and note is not None:
+        note(f"restarting {config.stage}: removed {removed} checkpoint(s) of the previous run")
     model = build_model(config, out)
     curve: dict[str, Any] = {"stage": config.stage, "evals": [], "rollouts": []}
-    latest = ckpt.latest_checkpoint(out) if resume else None
-    if latest is not None:
-        doc, tensors = ckpt.read_checkpoint(latest, expect={"stage": config.stage,
-                                                            "network": config.network()})
-        ckpt.restore(model, doc, tensors)
+    found = ckpt.resume(model, out, {"stage": config.stage, "network": config.network()},
+                        warn) if resume else None
+    if found is not None:
+        latest, doc = found
         curve = doc["curve"]
-        if progress or beat is not None:
-            (beat.say if beat is not None else say_stderr)(
-                f"resuming {config.stage} from {latest.name} "
-                f"({model.num_timesteps:,} steps done)")
+        curve.setdefault("evals", [])
+        curve.setdefault("rollouts", [])
+        shutil.rmtree(warm_start_dir(out), ignore_errors=True)  # superseded, see _Monitor.save
+        if note is not None:
+            note(f"resuming {config.stage} from {latest.name} "
+                 f"({model.num_timesteps:,} steps done)")
     elif config.warm_start == "scripted":
         if beat is not None:
             beat.set_phase("warm start (behaviour cloning)")
-        curve["warm_start"] = warm_start(model, config, progress and beat is None)
+        curve["warm_start"] = warm_start(model, config, progress and beat is None, out,
+                                         warn, note)
     (out / "config.yaml").write_text(yaml.safe_dump(config.to_dict(), sort_keys=False))
     monitor = _Monitor(config, out, curve, progress, beat)
     remaining = config.decisions - int(model.num_timesteps)
@@ -178,7 +197,7 @@ def _train_stage(config: TrainConfig, out: Path, resume: bool, progress: bool,
     try:
         if remaining > 0:
             model.learn(total_timesteps=remaining, callback=monitor.callback,
-                        reset_num_timesteps=latest is None, tb_log_name=config.stage)
+                        reset_num_timesteps=found is None, tb_log_name=config.stage)
     finally:
         if monitor.bar is not None:
             monitor.bar.close()
@@ -193,14 +212,18 @@ def _train_stage(config: TrainConfig, out: Path, resume: bool, progress: bool,
     curve["decisions_simulated"] = (stages.decisions_simulated(model.get_env())
                                     if config.stage == "high" else curve["steps"])
     export_policy(model, config, out / "policy", final)
-    (out / "curve.json").write_text(json.dumps(curve, indent=1))
+    # written last, in one step: reproduce takes a stage with a curve.json as trained
+    ckpt.atomic_write(out / "curve.json", json.dumps(curve, indent=1).encode(), "curve")
     return curve
 
 
-def warm_start(model: Any, config: TrainConfig, progress: bool) -> dict[str, Any]:
+def warm_start(model: Any, config: TrainConfig, progress: bool, out: Path | None = None,
+               warn: Say | None = None, note: Say | None = None) -> dict[str, Any]:
     """Behaviour-clone the scripted controller into ``model`` (labelled in every output):
-    ``ScriptedController`` for SIMPLE, ``AimedSwing`` for HUMAN-LIKE."""
-    from rallysim.train.warm_start import behaviour_clone
+    ``ScriptedController`` for SIMPLE, ``AimedSwing`` for HUMAN-LIKE. With ``out``, resumable:
+    its state is saved in (and resumed from) ``warm_start_dir(out)``; ``warn``: where a
+    skipped damaged state is reported, ``note``: where resuming is."""
+    from rallysim.train.warm_start import WarmCheckpoint, behaviour_clone
 
     if config.env == "humanlike":
         from rallysim.policies.aimed_swing import AimedSwing
@@ -210,22 +233,24 @@ def warm_start(model: Any, config: TrainConfig, progress: bool) -> dict[str, Any
         from rallysim.policies import ScriptedController
 
         teacher, name = ScriptedController().act_return, "ScriptedController"
-    t = time.perf_counter()
     if progress:
         print(f"warm start: cloning {name} over {config.warm_start_decisions:,} decisions "
               f"(+{config.warm_start_dagger} DAgger rounds) ...", file=sys.stderr, flush=True)
-    done = []
 
-    def evaluate(act: Any) -> dict[str, Any]:
+    def evaluate(act: Any, round_: int) -> dict[str, Any]:
         # the clone's learning curve over its DAgger rounds, with the stage's own numbers
         result = stages.evaluate(config, act)
         if progress:
-            stage = f"DAgger round {len(done)}" if done else "clone"
+            stage = f"DAgger round {round_}" if round_ else "clone"
             print(f"[warm start] {stage}: {stages.headline(config, result)}", file=sys.stderr,
                   flush=True)
-        done.append(result)
         return result
 
+    checkpoint = None
+    if out is not None:
+        checkpoint = WarmCheckpoint(warm_start_dir(out), say=warn or say_stderr, note=note,
+                                    extra={"eval_episodes": config.eval_episodes,
+                                           "eval_seed": config.eval_seed})
     result = behaviour_clone(model, teacher, config.warm_start_decisions,
                              epochs=config.warm_start_epochs,
                              log_std=config.warm_start_log_std, shuttle=config.shuttle,
@@ -233,8 +258,9 @@ def warm_start(model: Any, config: TrainConfig, progress: bool) -> dict[str, Any
                              dagger_rounds=config.warm_start_dagger,
                              batch_size=config.warm_start_batch_size,
                              lr_decay=config.warm_start_lr_decay,
-                             evaluate=evaluate if config.warm_start_dagger else None)
-    return {**result, "teacher": name, "wall_s": round(time.perf_counter() - t, 2)}
+                             evaluate=evaluate if config.warm_start_dagger else None,
+                             checkpoint=checkpoint)
+    return {**result, "teacher": name}
 
 
 def export_policy(model: Any, config: TrainConfig, prefix: Path, final: dict[str, Any]) -> None:

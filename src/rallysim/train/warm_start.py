@@ -7,11 +7,25 @@ to the discounted returns it earned, so that PPO's first advantages are not nois
 undo the clone. With ``dagger_rounds`` > 0 the clone then plays itself and the teacher labels
 the states it reaches (DAgger), so that it also learns to recover from its own mistakes. The
 log-std is then set to ``log_std`` (small: the clone is already good).
+
+Resumable: given a ``WarmCheckpoint``, each round's dataset is saved once it is collected
+(``data_{round}.{digest}.safetensors``) and the clone's state after every fitted epoch and
+every evaluation (``warm_{n}.{json,safetensors}``: weights, the fit's Adam state, the random
+generators and the results so far; ``rallysim.train.checkpoint.write_pair``). A warm start
+killed at any moment and started again with the same settings resumes from the newest intact
+state, redoing at most the collection or the epoch it was in, and ends with bit-identical
+weights and results.
 """
 
 from __future__ import annotations
 
+import random
+import re
+import sys
+import time
 from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -19,8 +33,17 @@ import torch
 from stable_baselines3 import PPO
 
 from rallysim.envs.simple_return_v0 import SimpleReturnVectorEnv
+from rallysim.train import checkpoint as ckpt
 
 Act = Callable[[np.ndarray], np.ndarray]
+Evaluate = Callable[[Act, int], dict[str, Any]]
+Say = Callable[[str], None]
+
+FORMAT = "rallysim-warm-start-checkpoint"
+FORMAT_VERSION = 1
+_STATE = re.compile(r"warm_(\d{6})\.json$")
+_DATA_KEYS = ("obs", "act", "ret", "weight")
+N_ENVS = 256  # environments the teacher and the clone play in, per round
 
 
 def _task_env(player: str, n_envs: int, shuttle: str) -> Any:
@@ -69,17 +92,204 @@ def teacher_dataset(teacher: Act, n_envs: int, decisions: int, gamma: float,
     return all_obs[valid], all_act[valid], returns[valid].astype(np.float32), weights[valid]
 
 
+
+def _say_stderr(text: str) -> None:
+    print(text, file=sys.stderr, flush=True)
+
+
+@dataclass
+class WarmCheckpoint:
+    """Where a warm start keeps its resumable state. ``say``: warnings (a skipped damaged
+    state); ``note``: progress (where it resumed), or None for quiet; ``extra``: settings beyond
+    ``behaviour_clone``'s own that the saved state must share (the evaluation's)."""
+
+    folder: Path
+    say: Say = _say_stderr
+    note: Say | None = None
+    extra: dict[str, Any] = field(default_factory=dict)
+    keep: int = 2
+
+
+@dataclass
+class _Progress:
+    """Where a warm start stands: what a saved state records besides the tensors."""
+
+    round: int = 0  # the round under way
+    epoch: int = 0  # epochs of that round's fit done
+    evaluated: bool = False  # that round's clone evaluated
+    labelled: int = 0  # decisions labelled by the teacher so far
+    rounds: list[dict[str, Any]] = field(default_factory=list)
+    losses: dict[str, float] = field(
+        default_factory=lambda: {"actor_mse": 0.0, "critic_mse": 0.0})
+    elapsed_s: float = 0.0  # time spent in earlier processes
+    seq: int = 0  # saves so far (names the state files)
+    result: dict[str, Any] | None = None  # set when the warm start is done
+
+
+def _teacher_name(teacher: Act) -> str:
+    return str(getattr(teacher, "__qualname__", type(teacher).__qualname__))
+
+
+class _Store:
+    """Saves and restores a warm start's progress, its datasets, the clone, its optimiser and
+    every random generator that the rest of the run draws from."""
+
+    def __init__(self, where: WarmCheckpoint, settings: dict[str, Any], policy: Any,
+                 optimiser: Any, gen: torch.Generator) -> None:
+        self.where, self.settings = where, ckpt.plain_json(settings)
+        self.policy, self.optimiser, self.gen = policy, optimiser, gen
+        self.data_files: list[dict[str, str]] = []
+
+    def save_data(self, k: int, arrays: tuple[np.ndarray, ...]) -> None:
+        from safetensors.numpy import save
+
+        folder = self.where.folder
+        folder.mkdir(parents=True, exist_ok=True)
+        data = save({key: np.ascontiguousarray(a) for key, a in zip(_DATA_KEYS, arrays,
+                                                                      strict=True)})
+        digest = ckpt.sha256_bytes(data)
+        name = f"data_{k:02d}.{digest[:16]}.safetensors"
+        ckpt.atomic_write(folder / name, data, "warm.data")
+        del self.data_files[k:]
+        self.data_files.append({"file": name, "sha256": digest})
+
+    def save(self, run: _Progress) -> None:
+        run.seq += 1
+        tensors = {f"policy.{k}": v.detach().cpu().numpy()
+                   for k, v in self.policy.state_dict().items()}
+        opt_tensors, opt_doc = ckpt.flatten_optimizer(self.optimiser.state_dict())
+        tensors.update(opt_tensors)
+        np_state = np.random.get_state()
+        tensors["rng.generator"] = self.gen.get_state().numpy()
+        tensors["rng.torch"] = torch.get_rng_state().numpy()
+        tensors["rng.numpy"] = np.asarray(np_state[1])
+        py_state = random.getstate()
+        doc = {"format": FORMAT, "format_version": FORMAT_VERSION, "settings": self.settings,
+               "seq": run.seq, "round": run.round, "epoch": run.epoch,
+               "evaluated": run.evaluated, "labelled": run.labelled, "rounds": run.rounds,
+               "losses": run.losses, "elapsed_s": run.elapsed_s, "result": run.result,
+               "data": self.data_files, "optimizer": opt_doc,
+               "rng": {"numpy": [np_state[0], *np_state[2:]],
+                       "python": [py_state[0], list(py_state[1]), py_state[2]]}}
+        folder = self.where.folder
+        ckpt.write_pair(folder, f"warm_{run.seq:06d}", tensors, doc, "warm")
+        ckpt.prune(folder, _STATE, self.where.keep, ("warm_", "data_"), _data_named)
+        ckpt.crash_point("warm.saved")
+
+    def restore(self) -> tuple[_Progress, list[tuple[np.ndarray, ...]]] | None:
+        """Load the newest intact state into the clone, its optimiser and the generators;
+        (the progress, the datasets), or None when there is none."""
+        paths = ckpt.checkpoints(self.where.folder, _STATE)
+        found: tuple[_Progress, list[tuple[np.ndarray, ...]]] | None = ckpt.newest_intact(
+            paths, self._load, self.where.say)
+        return found
+
+    def _load(self, path: Path) -> tuple[_Progress, list[tuple[np.ndarray, ...]]]:
+        doc, tensors = ckpt.read_pair(path, FORMAT, (FORMAT_VERSION,), _check_state,
+                                      expect={"settings": self.settings})
+        data = [self._read_data(path, entry) for entry in doc["data"]]
+        policy_state = {k[len("policy."):]: torch.from_numpy(np.array(v))
+                        for k, v in tensors.items() if k.startswith("policy.")}
+        try:
+            self.policy.load_state_dict(policy_state)
+            self.gen.set_state(torch.from_numpy(np.array(tensors["rng.generator"])))
+            torch.set_rng_state(torch.from_numpy(np.array(tensors["rng.torch"])))
+            name, pos, has_gauss, cached = doc["rng"]["numpy"]
+            np.random.set_state((name, np.array(tensors["rng.numpy"]), pos, has_gauss,
+                                 cached))
+            version, internal, gauss = doc["rng"]["python"]
+            random.setstate((version, tuple(internal), gauss))
+        except (KeyError, RuntimeError, ValueError, TypeError) as err:
+            raise ckpt.CheckpointError(f"checkpoint {path}: its tensors or field rng do not "
+                                       f"fit this warm start: {err}") from None
+        ckpt.load_optimizer(self.optimiser, tensors, doc["optimizer"], path)
+        self.data_files = list(doc["data"])
+        run = _Progress(round=doc["round"], epoch=doc["epoch"], evaluated=doc["evaluated"],
+                        labelled=doc["labelled"], rounds=doc["rounds"], losses=doc["losses"],
+                        elapsed_s=float(doc["elapsed_s"]), seq=doc["seq"], result=doc["result"])
+        return run, data
+
+    @staticmethod
+    def _read_data(path: Path, entry: dict[str, str]) -> tuple[np.ndarray, ...]:
+        from safetensors.numpy import load
+
+        file = path.with_name(entry["file"])
+        try:
+            raw = file.read_bytes()
+        except OSError:
+            raise ckpt.CheckpointError(f"checkpoint {path} lacks its dataset {file.name} "
+                                       "(field data)") from None
+        if ckpt.sha256_bytes(raw) != entry["sha256"]:
+            raise ckpt.CheckpointError(f"warm-start dataset {file} is corrupted (SHA-256 "
+                                       f"differs from field data of {path.name})")
+        try:
+            arrays = load(raw)
+            return tuple(arrays[key] for key in _DATA_KEYS)
+        except Exception as err:  # safetensors raises its own error types
+            raise ckpt.CheckpointError(f"warm-start dataset {file} is corrupted: {err}"
+                                       ) from None
+
+
+def _data_named(path: Path) -> list[str]:
+    """The datasets a saved state needs (every one beside it when it cannot be read)."""
+    try:
+        doc = ckpt.read_json(path)
+        return [str(entry["file"]) for entry in doc["data"]]
+    except (ckpt.CheckpointError, KeyError, TypeError):
+        return [p.name for p in path.parent.glob("data_*.safetensors")]
+
+
+def _check_state(doc: dict[str, Any], path: Path) -> None:
+    """The fields a warm start's resume reads, with their types."""
+    req, count = ckpt.require, ckpt.require_count
+    for name in ("seq", "round", "epoch", "labelled"):
+        count(doc, name, path)
+    named = _STATE.search(path.name)
+    if named is None or int(named.group(1)) != doc["seq"]:
+        raise ckpt.CheckpointError(f"checkpoint {path}: field seq = {doc['seq']} disagrees "
+                                   "with its file name")
+    req(doc, "evaluated", bool, path)
+    req(doc, "elapsed_s", float, path)
+    req(doc, "settings", dict, path)
+    for i, row in enumerate(req(doc, "rounds", list, path)):
+        if not isinstance(row, dict):
+            raise ckpt.CheckpointError(f"checkpoint {path}: field rounds[{i}] must be object")
+    losses = req(doc, "losses", dict, path)
+    for key in losses:
+        req(losses, key, float, path, "losses.")
+    req(doc, "result", (dict, type(None)), path)
+    for i, entry in enumerate(req(doc, "data", list, path)):
+        if not isinstance(entry, dict):
+            raise ckpt.CheckpointError(f"checkpoint {path}: field data[{i}] must be object")
+        name = req(entry, "file", str, path, f"data[{i}].")
+        req(entry, "sha256", str, path, f"data[{i}].")
+        if Path(name).name != name or name.startswith("."):
+            raise ckpt.CheckpointError(f"checkpoint {path}: field data[{i}].file must name a "
+                                       f"file beside it, found {name!r}")
+    if len(doc["data"]) != doc["round"] + 1:  # a round's data is saved before its state
+        raise ckpt.CheckpointError(f"checkpoint {path}: field data lists {len(doc['data'])} "
+                                   f"dataset(s) for round {doc['round']}")
+    optimizer = req(doc, "optimizer", dict, path)
+    req(optimizer, "state", dict, path, "optimizer.")
+    req(optimizer, "param_groups", list, path, "optimizer.")
+    rng = req(doc, "rng", dict, path)
+    req(rng, "numpy", list, path, "rng.")
+    req(rng, "python", list, path, "rng.")
+
+
 def behaviour_clone(model: PPO, teacher: Act, decisions: int, epochs: int = 30,
                     batch_size: int = 4096, lr: float = 1e-3, log_std: float = -1.5,
                     shuttle: str = "paper", seed: int = 0, player: str = "simple",
                     dagger_rounds: int = 0, lr_decay: bool = False,
-                    evaluate: Callable[[Act], dict[str, Any]] | None = None
-                    ) -> dict[str, Any]:
+                    evaluate: Evaluate | None = None,
+                    checkpoint: WarmCheckpoint | None = None) -> dict[str, Any]:
     """Fit ``model``'s actor mean and critic to ``teacher``; return the final losses.
     ``lr_decay``: a cosine decay of the learning rate to 5 % over each fit's epochs.
-    ``evaluate``: called with the deterministic clone after the first fit and after every
-    DAgger round; its results are returned under ``rounds`` with the decisions labelled so
-    far (the clone's learning curve)."""
+    ``evaluate``: called with the deterministic clone and the round (0: the clone) after the
+    first fit and after every DAgger round; its results are returned under ``rounds`` with the
+    decisions labelled so far (the clone's learning curve). ``checkpoint``: save the progress
+    there and resume from what is saved there (see the module's docstring)."""
+    t0 = time.perf_counter()
     policy = model.policy
     optimiser = torch.optim.Adam(policy.parameters(), lr=lr)
     gen = torch.Generator().manual_seed(seed)
@@ -88,35 +298,87 @@ def behaviour_clone(model: PPO, teacher: Act, decisions: int, epochs: int = 30,
         with torch.no_grad():
             return model.policy.predict(obs, deterministic=True)[0]
 
+    run = _Progress()
     data: list[tuple[np.ndarray, ...]] = []
-    rounds: list[dict[str, Any]] = []
-    labelled = 0
-    for k in range(dagger_rounds + 1):  # round 0: the teacher plays; then the clone does
-        size = decisions if k == 0 else max(256, decisions // 4)
-        data.append(teacher_dataset(teacher, 256, size, model.gamma, shuttle, seed + 7919 * k,
-                                    player, actor=student if k else None))
-        labelled += max(1, size // 256) * 256  # teacher_dataset plays whole batch steps
-        losses = _fit(policy, optimiser, gen, data, epochs if k == 0 else max(1, epochs // 2),
-                      batch_size, lr, lr_decay)
-        if evaluate is not None:
-            rounds.append({"round": k, "labelled_decisions": labelled, **losses,
-                           **evaluate(student)})
+    store = None
+    if checkpoint is not None:
+        settings = {"decisions": decisions, "epochs": epochs, "batch_size": batch_size,
+                    "lr": lr, "log_std": log_std, "shuttle": shuttle, "seed": seed,
+                    "player": player, "dagger_rounds": dagger_rounds, "lr_decay": lr_decay,
+                    "gamma": float(model.gamma), "teacher": _teacher_name(teacher),
+                    "evaluated": evaluate is not None,
+                    "network": {k: list(v.shape) for k, v in policy.state_dict().items()},
+                    **checkpoint.extra}
+        store = _Store(checkpoint, settings, policy, optimiser, gen)
+        restored = store.restore()
+        if restored is not None:
+            run, data = restored
+            if checkpoint.note is not None:
+                where = ("done" if run.result is not None else
+                         f"round {run.round} of {dagger_rounds}, {run.epoch} epoch(s) fitted")
+                checkpoint.note(f"resuming the warm start from warm_{run.seq:06d}.json "
+                                f"({where})")
+            if run.result is not None:
+                return run.result
+
+    mark = t0  # the time up to which run.elapsed_s counts
+
+    def save() -> None:
+        nonlocal mark
+        if store is not None:
+            now = time.perf_counter()
+            run.elapsed_s, mark = run.elapsed_s + now - mark, now
+            store.save(run)
+
+    for k in range(run.round, dagger_rounds + 1):  # round 0: the teacher plays; then the clone
+        run.round = k
+        size = decisions if k == 0 else max(N_ENVS, decisions // 4)
+        if len(data) <= k:
+            data.append(teacher_dataset(teacher, N_ENVS, size, model.gamma, shuttle,
+                                        seed + 7919 * k, player, actor=student if k else None))
+            run.labelled += max(1, size // N_ENVS) * N_ENVS  # whole batch steps are played
+            run.epoch, run.evaluated = 0, False
+            if store is not None:
+                store.save_data(k, data[k])
+            save()
+        fit_epochs = epochs if k == 0 else max(1, epochs // 2)
+
+        def epoch_done(epoch: int, losses: dict[str, float]) -> None:
+            run.epoch, run.losses = epoch + 1, losses
+            save()
+
+        if run.epoch < fit_epochs:
+            _fit(policy, optimiser, gen, data, fit_epochs, batch_size, lr, lr_decay,
+                 start=run.epoch, epoch_done=epoch_done)
+        if evaluate is not None and not run.evaluated:
+            run.rounds.append({"round": k, "labelled_decisions": run.labelled, **run.losses,
+                               **evaluate(student, k)})
+            run.evaluated = True
+            save()
     with torch.no_grad():
         policy.log_std.fill_(log_std)
-    out: dict[str, Any] = {"samples": float(sum(len(d[0]) for d in data)), **losses}
+    elapsed = run.elapsed_s + time.perf_counter() - mark
+    out: dict[str, Any] = {"samples": float(sum(len(d[0]) for d in data)), **run.losses,
+                           "wall_s": round(elapsed, 2)}
     if evaluate is not None:
-        out["rounds"] = rounds
+        out["rounds"] = run.rounds
+    run.result = out
+    save()
     return out
 
 
 def _fit(policy: Any, optimiser: Any, gen: Any, data: list[tuple[np.ndarray, ...]],
-         epochs: int, batch_size: int, lr: float, lr_decay: bool) -> dict[str, float]:
+         epochs: int, batch_size: int, lr: float, lr_decay: bool, start: int = 0,
+         epoch_done: Callable[[int, dict[str, float]], None] | None = None
+         ) -> dict[str, float]:
+    """Fit epochs ``start`` .. ``epochs`` - 1; ``epoch_done(epoch, losses)`` after each."""
     o = torch.as_tensor(np.concatenate([d[0] for d in data]))
     a = torch.as_tensor(np.concatenate([d[1] for d in data]))
     g = torch.as_tensor(np.concatenate([d[2] for d in data]))[:, None]
     w = torch.as_tensor(np.concatenate([d[3] for d in data]))  # (samples, actions)
     actor_loss = critic_loss = torch.zeros(())
-    for epoch in range(epochs):
+    losses = {"actor_mse": 0.0, "critic_mse": 0.0}
+    for epoch in range(start, epochs):
         if lr_decay:
             for group in optimiser.param_groups:
                 group["lr"] = lr * (0.05 + 0.475 * (1.0 + np.cos(np.pi * epoch / epochs)))
@@ -130,4 +392,7 @@ def _fit(policy: Any, optimiser: Any, gen: Any, data: list[tuple[np.ndarray, ...
             optimiser.zero_grad()
             (actor_loss + 0.5 * critic_loss).backward()
             optimiser.step()
-    return {"actor_mse": actor_loss.item(), "critic_mse": critic_loss.item()}
+        losses = {"actor_mse": actor_loss.item(), "critic_mse": critic_loss.item()}
+        if epoch_done is not None:
+            epoch_done(epoch, losses)
+    return losses
