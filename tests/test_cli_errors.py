@@ -125,7 +125,11 @@ OPTION_ERRORS: list[tuple[list[str], str]] = [
     *[(["render", "--size", size], "--size") for size in (
         "100000x100000", "4097x360", "640x4097", "10x10", "15x360", "0x0", "-640x360", "abc",
         "640x", "x360", "640x360x2", "")],
-    *[(["render", "--gif-every", v], "--gif-every") for v in ("-1", "0", "abc", "1.5")],
+    *[(["render", "--gif-every", v], "--gif-every") for v in ("-1", "0", "abc", "1.5", "101",
+                                                               "100000")],
+    *[(["play", "--seconds", v], "--seconds") for v in ("-1", "0", "nan", "inf", "abc")],
+    *[([cmd, "--high", v], "fixed") for cmd in ("render", "evaluate")
+      for v in ("fixed:nan", "fixed:inf", "fixed:abc")],
     *[(["render", opt, v], opt) for opt in ("--stills", "--episodes") for v in ("0", "-1")],
     (["render", "--env", "bogus"], "--env"), (["render", "--camera", "top"], "--camera"),
     (["render", "--mode", "solo"], "--mode"),

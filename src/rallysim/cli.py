@@ -95,6 +95,17 @@ _non_negative = _integer_at_least(0)
 _positive = _integer_at_least(1)
 _cap = _integer_at_least(1, 100_000)
 _seed = _integer_at_least(0, SEED_MAX)
+_gif_step = _integer_at_least(1, 100)  # a GIF frame lasts at most 655 s (16-bit hundredths)
+
+
+def _seconds(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not (0 < value < float("inf")):
+        raise argparse.ArgumentTypeError(f"must be a positive number of seconds, got {text!r}")
+    return value
 
 
 def _os_message(err: OSError) -> str:
@@ -241,9 +252,8 @@ def _play(args: argparse.Namespace) -> int:
     from rallysim.render.play import play
 
     if not has_display():
-        print("rallysim play needs a display (DISPLAY is unset); use `rallysim render` to write "
-              "videos instead", file=sys.stderr)
-        return 2
+        raise UsageError("a display is needed (DISPLAY is unset); use `rallysim render` to "
+                         "write videos instead")
     human = None if args.human == "none" else int(args.human)
     lengths = play(rally_low_level(args.policy, args.seed), high_level_policy(args.high, args.seed),
                    human=human, config=RallyConfig(shuttle=args.shuttle, mode=args.mode),
@@ -363,8 +373,12 @@ def _evaluate(args: argparse.Namespace) -> int:
               + f"  (target mean >= {t['mean_rally']:g})")
     else:
         from rallysim.eval.compare import evaluate_methods
+        from rallysim.policies.resolve import high_level_policy, low_level_policy, mono_policy
         from rallysim.train.progress import Heartbeat, progress_lines
 
+        # a bad policy name or file fails here, before the long work
+        low_level_policy(args.low), high_level_policy(args.high or "pretrained")
+        mono_policy(args.mono)
         say = progress_lines()
         beat = None if say is None else Heartbeat("[evaluate]", 3 * args.seeds, say,
                                                   unit="rally sets")
@@ -477,7 +491,7 @@ def build_parser() -> argparse.ArgumentParser:
     render.add_argument("--camera", choices=("side", "three_quarter"), default="side")
     render.add_argument("--size", type=_size, default=(640, 360), help="WIDTHxHEIGHT")
     render.add_argument("--stills", type=_positive, default=8, help="frames in the strip")
-    render.add_argument("--gif-every", type=_positive, default=2,
+    render.add_argument("--gif-every", type=_gif_step, default=2,
                         help="keep every k-th frame in the GIF")
     render.add_argument("--out", type=_out_dir, default="results/videos")
     _common(render)
@@ -488,7 +502,7 @@ def build_parser() -> argparse.ArgumentParser:
     play.add_argument("--policy", default="scripted", help="the computer's low level")
     play.add_argument("--high", default="random", help="the computer's goals")
     play.add_argument("--mode", choices=("cooperative", "competitive"), default="competitive")
-    play.add_argument("--seconds", type=float, default=None,
+    play.add_argument("--seconds", type=_seconds, default=None,
                       help="close the window after this many seconds (default: when you close it)")
     _common(play)
     play.set_defaults(run=_play)

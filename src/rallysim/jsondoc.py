@@ -30,6 +30,8 @@ def read_object(path: Path, what: str, error: type[ValueError] = ValueError) -> 
         doc = json.loads(text)
     except json.JSONDecodeError as err:
         raise error(f"{what} {path} is corrupted: not valid JSON ({err})") from None
+    except RecursionError:
+        raise error(f"{what} {path} is corrupted: nested too deeply") from None
     if not isinstance(doc, dict):
         raise error(f"{what} {path} is corrupted: it must hold a JSON object, found a "
                     f"{type_name(doc)}")

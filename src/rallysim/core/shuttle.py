@@ -127,7 +127,7 @@ SHUTTLE_MODELS: dict[str, type[ShuttleModel]] = {
 def make_shuttle_model(name: str, dt: float = 0.02) -> ShuttleModel:
     """The flight model called ``name``; a clear error lists the valid names."""
     try:
-        cls = SHUTTLE_MODELS[name]
+        cls = SHUTTLE_MODELS[name if isinstance(name, str) else ""]
     except KeyError:
         valid = ", ".join(repr(k) for k in SHUTTLE_MODELS)
         raise ValueError(f"unknown shuttle model {name!r}; valid models: {valid}") from None

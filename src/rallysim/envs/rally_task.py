@@ -50,7 +50,7 @@ class RallyConfig:
         if (isinstance(self.hit_reward, bool) or not isinstance(self.hit_reward, int | float)
                 or not np.isfinite(self.hit_reward)):
             raise ValueError(f"hit_reward must be a finite number, got {self.hit_reward!r}")
-        if self.shuttle not in SHUTTLE_MODELS:
+        if not isinstance(self.shuttle, str) or self.shuttle not in SHUTTLE_MODELS:
             valid = ", ".join(map(repr, SHUTTLE_MODELS))
             raise ValueError(f"unknown shuttle {self.shuttle!r}; valid models: {valid}")
         if self.mode not in MODES:

@@ -48,6 +48,11 @@ class EnvView:
         self._scene: Any = None
         self._viewer: Any = None
 
+    def __getstate__(self) -> dict[str, Any]:
+        """A copy draws with its own renderer (a GL context and a window belong to one
+        process and one object), made when it first renders."""
+        return {**self.__dict__, "_scene": None, "_viewer": None}
+
     def _scene_renderer(self) -> Any:
         if self._scene is None:
             try:

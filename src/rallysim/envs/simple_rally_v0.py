@@ -134,7 +134,7 @@ def _ignore_options(options: dict | None, name: str) -> None:
     """PettingZoo's API test requires envs to accept any reset options; ours take none, so
     say so instead of failing."""
     if options:
-        warnings.warn(f"{name} takes no reset options; ignoring {sorted(options)}",
+        warnings.warn(f"{name} takes no reset options; ignoring {sorted(options, key=repr)}",
                       stacklevel=3)
 
 
@@ -427,7 +427,8 @@ class SimpleRallyTurnEnv(gym.Env):
         self._done = True
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
-        super().reset(seed=seed)
+        self.vec._check_options(options)  # checked before any stream restarts
+        super().reset(seed=validate_seed(seed))
         obs, _ = self.vec.reset(seed=seed, options=options)
         self._done = False
         return obs[0], {}

@@ -76,7 +76,7 @@ from rallysim.envs.simple_obs import (
     player_observations,
 )
 from rallysim.envs.task_env import TaskEnv, box_spaces
-from rallysim.envs.validation import positive_int, read_options
+from rallysim.envs.validation import positive_int, read_options, real_array
 from rallysim.envs.vector_base import NEXT_STEP, TaskVectorEnv
 
 OBS_SIZE = PLAYER_OBS_SIZE + 1
@@ -101,10 +101,14 @@ class ReturnTask:
             raise ValueError(f"unknown incoming {incoming!r}; valid: "
                              f"{', '.join(map(repr, INCOMING))}")
         self.incoming = incoming
-        self.keep_bodies = keep_bodies
+        if not isinstance(keep_bodies, bool | np.bool_):
+            raise ValueError(f"keep_bodies must be True or False, got {keep_bodies!r}")
+        self.keep_bodies = bool(keep_bodies)
         self._started = np.zeros(num_envs, bool)
         self._bank: np.ndarray | None = None
-        lo, hi = map(float, target_depth_range)
+        # anything but two real numbers fails the range check below
+        lo, hi = (real_array(target_depth_range, "target_depth_range", (2,))
+                  if np.shape(target_depth_range) == (2,) else (np.nan, np.nan))
         if not TARGET_DEPTH_RANGE[0] <= lo <= hi <= TARGET_DEPTH_RANGE[1]:
             raise ValueError(f"target_depth_range must lie within {TARGET_DEPTH_RANGE}, got "
                              f"{target_depth_range}")

@@ -82,14 +82,22 @@ class TurnTask:
         Returns per rally: ``reward`` (N, 2) summed over the span, ``decisions`` (N,),
         ``terminated``, ``truncated``, ``rally_length``, ``score`` (N, 2), ``hits`` (N, 2) in the
         span, and ``acted`` (N,), the player whose goal was set."""
-        n, rally = self.n, self.rally
+        n = self.n
         running = np.zeros(n, bool)
         running[np.arange(n) if envs is None else np.asarray(envs)] = True
         rows = np.flatnonzero(running)
         acted = self.turn_player.copy()
         shape = (n, *self.goals.shape[2:])
         goals = self.rally.clip_goals(np.broadcast_to(np.asarray(goals, np.float64), shape))
+        previous = self.goals.copy()
         self.goals[rows, acted[rows]] = goals[rows]
+        return self._run_span(running, acted, previous)
+
+    def _run_span(self, running: np.ndarray, acted: np.ndarray,
+                  previous_goals: np.ndarray) -> dict[str, np.ndarray]:
+        """Both players' low levels act on their goals until a turn begins, for the rallies
+        marked ``running``."""
+        n, rally = self.n, self.rally
         out = {
             "reward": np.zeros((n, 2)), "decisions": np.zeros(n, np.int64),
             "terminated": np.zeros(n, bool), "truncated": np.zeros(n, bool),
@@ -99,7 +107,12 @@ class TurnTask:
         flat_goals = self.goals.reshape((2 * n, *self.goals.shape[2:]))
         while running.any():
             obs = rally.observe().reshape(2 * n, rally.obs_size)
-            actions = self._low_level_actions(obs, flat_goals)
+            try:
+                actions = self._low_level_actions(obs, flat_goals)
+            except ValueError:
+                if not out["decisions"].any():  # refused before anything moved: undo the goals
+                    self.goals[:] = previous_goals
+                raise
             reward, term, trunc, info = rally.step(actions, active=running)
             out["reward"] += reward * running[:, None]
             out["decisions"] += running

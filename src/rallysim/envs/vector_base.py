@@ -49,7 +49,9 @@ class NativeVectorEnv(VectorEnv):
     def _setup(self, num_units: int, autoreset_mode: Any) -> None:
         num_units = positive_int(num_units, "the number of environments")
         key = parse_autoreset_mode(autoreset_mode)
-        self.metadata = {**self.metadata, "autoreset_mode": AUTORESET_MODES[key]}
+        # both places Gymnasium's own vector envs declare it (TorchRL reads the attribute)
+        self.autoreset_mode = AUTORESET_MODES[key]
+        self.metadata = {**self.metadata, "autoreset_mode": self.autoreset_mode}
         self._same_step = key == "same_step"
         self.num_units = int(num_units)
         self.num_envs = self.num_units * self.slots_per_unit
@@ -116,8 +118,9 @@ class NativeVectorEnv(VectorEnv):
         return self._observe(), self._reset_info()
 
     def _check_seeds(self, seed: Any) -> list[int]:
-        if np.isscalar(seed) or isinstance(seed, bool):
-            seeds = [validate_seed(seed) + i for i in range(self.num_units)]
+        if np.ndim(seed) == 0 and not isinstance(seed, dict | str | bytes):
+            first = validate_seed(seed.item() if isinstance(seed, np.ndarray) else seed)
+            seeds = [validate_seed(first + i) for i in range(self.num_units)]
         elif isinstance(seed, list | tuple | np.ndarray):
             seeds = [validate_seed(s) for s in seed]
         else:
@@ -171,6 +174,7 @@ class TaskVectorEnv(NativeVectorEnv):
         from rallysim.envs.rendering import EnvView
 
         self._setup(num_envs, autoreset_mode)
+        render_envs = positive_int(render_envs, "render_envs")
         self.render_mode = render_mode
         # one view per rendered environment (each keeps its own shuttle trail)
         self._views = [EnvView(render_mode, 1, **view_kwargs)

@@ -84,7 +84,14 @@ def high_level_policy(spec: str, seed: int = 0) -> Policy:
     if spec == "random":
         return UniformRandom(None, seed, lo, hi)
     if spec.startswith("fixed:"):
-        return FixedGoal(float(np.clip(float(spec.split(":", 1)[1]), lo, hi)))
+        try:
+            goal = float(spec.split(":", 1)[1])
+        except ValueError:
+            goal = np.nan
+        if not np.isfinite(goal):
+            raise ValueError(f"a fixed goal is fixed:D with D a finite depth in metres, got "
+                             f"{spec!r}")
+        return FixedGoal(float(np.clip(goal, lo, hi)))
     return Composed(depth_from_action, load_network(spec, "high"))
 
 

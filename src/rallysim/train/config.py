@@ -95,6 +95,9 @@ class TrainConfig:
         floor = 0 if self.warm_start != "none" else 1
         if self.decisions < floor:
             raise ValueError(f"decisions must be >= {floor}, got {self.decisions}")
+        if self.n_envs * self.n_steps < 2:
+            raise ValueError(f"a rollout (n_envs x n_steps) needs at least 2 decisions, got "
+                             f"{self.n_envs} x {self.n_steps}")
         for name, (ok, bounds) in _BOUNDS.items():
             value = getattr(self, name)
             if value is not None and not ok(value):
@@ -154,7 +157,9 @@ _CHOICES: dict[str, tuple[str, ...]] = {
 _BOUNDS: dict[str, tuple[Callable[[Any], bool], str]] = {
     "seed": (lambda v: 0 <= v <= SEED_MAX, f"in [0, {SEED_MAX}]"),
     "eval_seed": (lambda v: 0 <= v <= SEED_MAX, f"in [0, {SEED_MAX}]"),
-    "n_envs": _at_least(1), "n_steps": _at_least(1), "batch_size": _at_least(1),
+    "n_envs": _at_least(1), "n_steps": _at_least(1),
+    # PPO normalises advantages over a minibatch, and over a rollout: both need two samples
+    "batch_size": _at_least(2),
     "n_epochs": _at_least(1), "target_kl": _above(0), "learning_rate": _above(0),
     # a discount or GAE lambda above 1 lets returns grow without bound
     "gamma": _within(0, 1), "gae_lambda": _within(0, 1),
