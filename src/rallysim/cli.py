@@ -19,6 +19,8 @@ from typing import NoReturn
 
 import numpy as np
 
+from rallysim.core.shuttle import SHUTTLE_MODELS
+
 # TrainConfig's bound (train/config.py SEED_MAX; not imported: it needs the train extra's yaml)
 SEED_MAX = 2**31 - 1
 # render --size: every frame is held in memory (4096x4096 RGB is 48 MiB) and OpenGL caps
@@ -398,7 +400,7 @@ def _evaluate(args: argparse.Namespace) -> int:
 
 
 def _common(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--shuttle", default="paper", choices=("paper", "paper-alg1", "aero"))
+    p.add_argument("--shuttle", default="paper", choices=tuple(SHUTTLE_MODELS))
     p.add_argument("--seed", type=_seed, default=0)
 
 
@@ -423,7 +425,7 @@ def build_parser() -> argparse.ArgumentParser:
                        help="settings over the config, e.g. n_envs=128 net_arch=[64,64]")
     train.add_argument("--decisions", type=int, help="budget in steps (turns for high)")
     train.add_argument("--seed", type=_seed)
-    train.add_argument("--shuttle", choices=("paper", "paper-alg1", "aero"))
+    train.add_argument("--shuttle", choices=tuple(SHUTTLE_MODELS))
     train.add_argument("--env", choices=("simple", "humanlike"),
                        help="the player of the low stage (default simple)")
     train.add_argument("--low-policy", dest="low_policy",
@@ -477,7 +479,7 @@ def build_parser() -> argparse.ArgumentParser:
                     help="SIMPLE rallies end at this many hits (default 50, the paper's; up "
                          "to 100000)")
     ev.add_argument("--json", type=_out_file, help="write every number here")
-    ev.add_argument("--shuttle", default="paper", choices=("paper", "paper-alg1", "aero"))
+    ev.add_argument("--shuttle", default="paper", choices=tuple(SHUTTLE_MODELS))
     ev.set_defaults(run=_evaluate)
 
     render = sub.add_parser("render", help="write an MP4, a GIF and stills of episodes")

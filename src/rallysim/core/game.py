@@ -117,6 +117,11 @@ class Game:
         for j, e in enumerate(np.asarray(envs)):
             self.rngs[e] = np.random.default_rng(None if seed is None else seed + j)
 
+    def seed_each(self, seeds: list[int]) -> None:
+        """Restart env e's random stream at ``seeds[e]`` (a vector env's per-env seeds)."""
+        for e, s in enumerate(seeds):
+            self.seed(np.array([e]), s)
+
     def reset(self, envs: np.ndarray, receiver: np.ndarray | int = 0,
               base_x: np.ndarray | None = None, theta: np.ndarray | float = 0.0,
               **body: Any) -> None:

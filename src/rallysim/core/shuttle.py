@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -124,11 +125,14 @@ SHUTTLE_MODELS: dict[str, type[ShuttleModel]] = {
 }
 
 
+def check_shuttle_name(name: Any) -> str:
+    """``name`` if it names a flight model; else a ``ValueError`` listing the valid names."""
+    if not isinstance(name, str) or name not in SHUTTLE_MODELS:
+        valid = ", ".join(repr(k) for k in SHUTTLE_MODELS)
+        raise ValueError(f"unknown shuttle model {name!r}; valid models: {valid}")
+    return name
+
+
 def make_shuttle_model(name: str, dt: float = 0.02) -> ShuttleModel:
     """The flight model called ``name``; a clear error lists the valid names."""
-    try:
-        cls = SHUTTLE_MODELS[name if isinstance(name, str) else ""]
-    except KeyError:
-        valid = ", ".join(repr(k) for k in SHUTTLE_MODELS)
-        raise ValueError(f"unknown shuttle model {name!r}; valid models: {valid}") from None
-    return cls(dt)
+    return SHUTTLE_MODELS[check_shuttle_name(name)](dt)

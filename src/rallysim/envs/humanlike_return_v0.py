@@ -54,8 +54,8 @@ Terminates when the shuttle's centre drops below z = 0; truncates after 1000 dec
 | ``render_mode`` | ``None`` | ``"rgb_array"``: ``render()`` returns a 640x360 frame (three-quarter view, the target velocity as a red arrow from the racket head); ``"human"`` (with a display): a viewer window |
 
 ``reset(options=...)`` accepts ``target_velocity`` (m/s, own frame, 3 values each in [-5, 5],
-a speed of at least 0.5 m/s) and ``hips_position`` (m, own frame x, y within the hips range); the vector env takes one value
-for all environments or one per environment.
+a speed of at least 0.5 m/s) and ``hips_position`` (m, own frame x, y within the hips range);
+the vector env takes one value for all environments or one per environment.
 
 ## ``info``
 ``hit``, ``racket_velocity`` (m/s, own frame, at the hit), ``velocity_error`` (d, m/s),
@@ -257,7 +257,7 @@ class HumanLikeReturnVectorEnv(TaskVectorEnv):
                  render_mode: str | None = None, seed: int | None = None,
                  render_envs: int = 1) -> None:
         num_envs = positive_int(num_envs, "num_envs")
-        task = HumanLikeReturnTask(int(num_envs), shuttle, seed, max_decisions)
+        task = HumanLikeReturnTask(num_envs, shuttle, seed, max_decisions)
         self._init_task(num_envs, autoreset_mode, task, _spaces(), render_mode, render_envs,
                         {"player": "humanlike"})
 

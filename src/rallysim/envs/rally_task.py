@@ -41,23 +41,18 @@ class RallyConfig:
     max_points: int = 30
 
     def __post_init__(self) -> None:
-        from rallysim.core.shuttle import SHUTTLE_MODELS
+        from rallysim.core.shuttle import check_shuttle_name
+        from rallysim.envs.validation import positive_int
 
         for name in ("max_hits", "max_decisions", "points_to_win", "win_by", "max_points"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int | np.integer):
-                raise ValueError(f"{name} must be an integer, got {value!r}")
+            positive_int(getattr(self, name), name)
         if (isinstance(self.hit_reward, bool) or not isinstance(self.hit_reward, int | float)
                 or not np.isfinite(self.hit_reward)):
             raise ValueError(f"hit_reward must be a finite number, got {self.hit_reward!r}")
-        if not isinstance(self.shuttle, str) or self.shuttle not in SHUTTLE_MODELS:
-            valid = ", ".join(map(repr, SHUTTLE_MODELS))
-            raise ValueError(f"unknown shuttle {self.shuttle!r}; valid models: {valid}")
+        check_shuttle_name(self.shuttle)
         if self.mode not in MODES:
             valid = ", ".join(map(repr, MODES))
             raise ValueError(f"unknown mode {self.mode!r}; valid modes: {valid}")
-        if self.max_hits < 1 or self.max_decisions < 1:
-            raise ValueError("max_hits and max_decisions must be >= 1")
         if not 1 <= self.points_to_win <= self.max_points or self.win_by < 1:
             raise ValueError("need 1 <= points_to_win <= max_points and win_by >= 1")
 

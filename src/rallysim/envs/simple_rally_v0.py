@@ -246,8 +246,7 @@ class SimpleRallyVectorEnv(NativeVectorEnv):
                                        np.float32)
 
     def _seed_units(self, seeds: list[int]) -> None:
-        for e, s in enumerate(seeds):
-            self.task.game.seed(np.array([e]), s)
+        self.task.game.seed_each(seeds)
 
     def _reset_units(self, units: np.ndarray, options: dict | None) -> None:
         self.task.reset(units)

@@ -248,7 +248,7 @@ class SimpleReturnVectorEnv(TaskVectorEnv):
                  render_envs: int = 1, incoming: str = "serve",
                  keep_bodies: bool = False) -> None:
         num_envs = positive_int(num_envs, "num_envs")
-        task = ReturnTask(int(num_envs), shuttle, seed, target_depth_range, max_decisions,
+        task = ReturnTask(num_envs, shuttle, seed, target_depth_range, max_decisions,
                           incoming, keep_bodies)
         self._init_task(num_envs, autoreset_mode, task, _spaces(), render_mode, render_envs, {})
 

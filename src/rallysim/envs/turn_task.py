@@ -61,8 +61,7 @@ class TurnTask:
     def seed(self, seeds: list[int]) -> None:
         """Restart rally e's random stream at ``seeds[e]``, and a seedable low level's (such as
         ``"random"``) at ``seeds[0]``, so that ``reset(seed=s)`` replays an episode exactly."""
-        for e, s in enumerate(seeds):
-            self.rally.game.seed(np.array([e]), s)
+        self.rally.game.seed_each(seeds)
         if hasattr(self.low_level, "seed") and seeds:
             self.low_level.seed(seeds[0])
 
@@ -137,6 +136,8 @@ class TurnTask:
         if actions.shape != (2 * n, size):
             raise ValueError(f"the low level {self.low_level!r} returned actions of shape "
                              f"{actions.shape}, expected {(2 * n, size)}")
+        # not validate_actions: that casts to float64, and the bodies' arithmetic keeps a
+        # policy's float32 (the seeded episodes would change)
         if actions.dtype.kind not in "fiu" or not np.isfinite(actions).all():
             raise ValueError(f"the low level {self.low_level!r} returned non-finite or "
                              "non-real actions")

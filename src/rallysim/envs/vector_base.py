@@ -187,8 +187,7 @@ class TaskVectorEnv(NativeVectorEnv):
         self.task = task
 
     def _seed_units(self, seeds: list[int]) -> None:
-        for e, s in enumerate(seeds):
-            self.task.game.seed(np.array([e]), s)
+        self.task.game.seed_each(seeds)
 
     def _check_options(self, options: dict[str, Any] | None) -> None:
         self.task.reset_options(options, self.num_units)
