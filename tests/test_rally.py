@@ -1,7 +1,5 @@
 """simple_rally_v0: PettingZoo APIs, rally rules, turns, competitive scoring (SPEC §7-8)."""
 
-import warnings
-
 import numpy as np
 import pytest
 from pettingzoo.test import api_test, parallel_api_test, parallel_seed_test, seed_test
@@ -10,13 +8,6 @@ from rallysim.envs import simple_rally_v0
 from rallysim.envs.rally_task import RallyConfig, RallyTask
 from rallysim.envs.turn_task import TurnTask
 from rallysim.policies import ScriptedController
-
-
-@pytest.fixture(autouse=True)
-def _quiet():
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # PettingZoo's tests pass options our envs ignore
-        yield
 
 
 def test_pettingzoo_api_and_seed_tests():

@@ -6,9 +6,10 @@ HUMAN-LIKE bodies of SPEC §10):
 | view | what |
 |---|---|
 | ``parallel_env(**kw)`` | PettingZoo ``ParallelEnv``; both players act every decision (0.1 s) |
+| ``env(**kw)`` / ``raw_env(**kw)`` | PettingZoo ``AECEnv``: the same rally, ``player_0`` then ``player_1`` each give the decision's action (``env`` adds PettingZoo's ``OrderEnforcingWrapper``) |
 | ``HumanLikeRallyVectorEnv(num_rallies, **kw)`` | Gymnasium ``VectorEnv``, one slot per rally-player pair (2N slots) |
 | ``turn_env(low_level=..., **kw)`` | PettingZoo ``AECEnv``; the acting agent is the player whose turn just began; its action is its goal for the frozen low level |
-| ``HumanLikeRallyTurnEnv`` / ``HumanLikeRallyTurnVectorEnv`` | single-agent Gymnasium view of the turn game (cooperative), one shared high-level policy |
+| ``HumanLikeRallyTurnEnv`` / ``HumanLikeRallyTurnVectorEnv`` (``RallySim/HumanLikeRallyTurn-v0``, single / vector) | single-agent Gymnasium view of the turn game (cooperative), one shared high-level policy |
 
 ## Players, actions, observations
 Agents ``"player_0"`` (receives the first serve) and ``"player_1"``. Each acts like the
@@ -38,6 +39,14 @@ levels act every decision; one step covers the span to the next turn (``infos[ag
 ``"random"``, ``"pretrained"``, a path prefix of an exported ``HumanLikeReturn-v0`` policy, or a
 callable ``(observations (M, 86), goals (M, 3)) -> actions (M, 15)``.
 
+## PettingZoo conventions
+As ``simple_rally_v0``'s: ``max_cycles`` (default None: no limit) truncates every agent on the
+``max_cycles``-th step after ``reset`` (a decision for ``parallel_env`` and for a cycle of
+``env()``, a turn for ``turn_env``); ``state()`` is player 0's observation, ``state_space``
+``Box(-1, 1, (86,), float32)`` (the opponent's joints are not in it);
+``metadata["is_parallelizable"]`` is True for ``env()`` / ``raw_env``, False for ``turn_env``;
+reset ``options`` are accepted and ignored silently (a non-dict raises ``ValueError``).
+
 ## Version history
 - v0: first release.
 """
@@ -46,8 +55,11 @@ from __future__ import annotations
 
 from typing import Any
 
+from pettingzoo.utils.wrappers import OrderEnforcingWrapper
+
 from rallysim.envs.humanlike_rally_task import HumanLikeRallyTask
 from rallysim.envs.simple_rally_v0 import (
+    SimpleRallyAECEnv,
     SimpleRallyParallelEnv,
     SimpleRallyTurnAECEnv,
     SimpleRallyTurnEnv,
@@ -56,9 +68,9 @@ from rallysim.envs.simple_rally_v0 import (
 )
 from rallysim.envs.turn_task import LowLevel
 
-__all__ = ["HumanLikeRallyParallelEnv", "HumanLikeRallyTurnAECEnv", "HumanLikeRallyTurnEnv",
-           "HumanLikeRallyTurnVectorEnv", "HumanLikeRallyVectorEnv", "parallel_env",
-           "turn_env"]
+__all__ = ["HumanLikeRallyAECEnv", "HumanLikeRallyParallelEnv", "HumanLikeRallyTurnAECEnv",
+           "HumanLikeRallyTurnEnv", "HumanLikeRallyTurnVectorEnv", "HumanLikeRallyVectorEnv",
+           "env", "parallel_env", "raw_env", "turn_env"]
 
 # The SIMPLE views are written over the rally core's hooks; these name the HUMAN-LIKE core.
 
@@ -68,6 +80,16 @@ class HumanLikeRallyParallelEnv(SimpleRallyParallelEnv):
 
     metadata = {**SimpleRallyParallelEnv.metadata, "name": "humanlike_rally_v0"}
     rally = HumanLikeRallyTask
+
+
+class HumanLikeRallyAECEnv(SimpleRallyAECEnv):
+    """The parallel HUMAN-LIKE rally as a PettingZoo ``AECEnv`` (``raw_env``)."""
+
+    metadata = {**HumanLikeRallyParallelEnv.metadata, "is_parallelizable": True}
+    parallel = HumanLikeRallyParallelEnv
+
+
+raw_env = HumanLikeRallyAECEnv
 
 
 class HumanLikeRallyVectorEnv(SimpleRallyVectorEnv):
@@ -98,6 +120,12 @@ class HumanLikeRallyTurnEnv(SimpleRallyTurnEnv):
 def parallel_env(**kwargs: Any) -> HumanLikeRallyParallelEnv:
     """The HUMAN-LIKE rally as a PettingZoo ``ParallelEnv`` (arguments as ``simple_rally_v0``)."""
     return HumanLikeRallyParallelEnv(**kwargs)
+
+
+def env(**kwargs: Any) -> OrderEnforcingWrapper:
+    """The HUMAN-LIKE rally as a PettingZoo ``AECEnv`` in PettingZoo's ``OrderEnforcingWrapper``
+    (as ``simple_rally_v0.env``)."""
+    return OrderEnforcingWrapper(raw_env(**kwargs))
 
 
 def turn_env(low_level: LowLevel | str = "scripted", **kwargs: Any) -> HumanLikeRallyTurnAECEnv:

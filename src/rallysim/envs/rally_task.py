@@ -14,7 +14,7 @@ won by 2, capped at 30; one episode is one game. A rally reaching the hit cap is
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from typing import Any
 
 import numpy as np
@@ -55,6 +55,17 @@ class RallyConfig:
             raise ValueError(f"unknown mode {self.mode!r}; valid modes: {valid}")
         if not 1 <= self.points_to_win <= self.max_points or self.win_by < 1:
             raise ValueError("need 1 <= points_to_win <= max_points and win_by >= 1")
+
+    @classmethod
+    def from_kwargs(cls, **kwargs: Any) -> RallyConfig:
+        """The rules from a view's keyword arguments. An unknown name raises ``ValueError``
+        listing the valid ones, rather than the dataclass's ``TypeError`` about
+        ``__init__()`` (which names an internal class the caller never wrote)."""
+        valid = [f.name for f in fields(cls)]
+        unknown = sorted(set(kwargs) - set(valid))
+        if unknown:
+            raise ValueError(f"unknown rally argument(s) {unknown}; valid: {valid}")
+        return cls(**kwargs)
 
 
 class RallyTask:

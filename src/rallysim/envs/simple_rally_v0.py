@@ -5,6 +5,7 @@ Views of one batched rally core (``RallyTask``):
 | view | what | for |
 |---|---|---|
 | ``parallel_env(**kw)`` | PettingZoo ``ParallelEnv``; both players act every decision (0.1 s) | multi-agent learners |
+| ``env(**kw)`` / ``raw_env(**kw)`` | PettingZoo ``AECEnv``: the same rally, ``player_0`` then ``player_1`` each give the decision's action (``env`` adds PettingZoo's ``OrderEnforcingWrapper``) | AEC-only tools |
 | ``SimpleRallyVectorEnv(num_rallies, **kw)`` | Gymnasium ``VectorEnv``, one slot per rally-player pair (2N slots) | one policy shared by both players |
 | ``turn_env(low_level=..., **kw)`` | PettingZoo ``AECEnv``; the acting agent is the player whose turn just began; its action is its goal | the paper's high level |
 | ``SimpleRallyTurnEnv`` / ``SimpleRallyTurnVectorEnv`` (``RallySim/SimpleRallyTurn-v0``, single / vector) | single-agent Gymnasium view of the turn game, cooperative, one shared policy | off-the-shelf trainers |
@@ -47,6 +48,19 @@ begins, then reports the summed rewards and ``infos[agent]["decisions"]``, the s
 in decisions, for gamma^k discounting. ``low_level`` is any batched callable
 ``(observations (M, 20), goals (M,)) -> actions (M, 3)``, or ``"scripted"`` / ``"random"``.
 
+## PettingZoo conventions
+- ``max_cycles`` (every PettingZoo view; default None, no limit): the episode is truncated on
+  the ``max_cycles``-th step after ``reset``, for every agent at once (a rally that ends on that
+  very step is terminated as well). A step of the parallel env and a cycle of ``env()`` (both
+  players acting) is one decision; a step of ``turn_env`` is one turn.
+- ``state()``, ``state_space``: player 0's observation, ``Box(-1, 1, (20,), float32)``: both
+  bases, the shuttle and player 0's arm (the opponent's arm is not in it).
+- ``metadata["is_parallelizable"]``: True for ``env()`` / ``raw_env`` (``aec_to_parallel``
+  gives back the parallel env), False for ``turn_env`` (players act in turns, with goals).
+- ``reset(options=...)``: the rallies have no reset options. Like PettingZoo's own envs they
+  accept a dict and ignore it, silently (PettingZoo's ``api_test`` resets with a made-up key
+  and requires that to work); anything but a dict or None raises ``ValueError``.
+
 ## ``info`` (per agent)
 ``hit``, ``racket_speed``, ``hit_point`` (this player), ``net_touch``, ``landed``,
 ``landing_point``, ``landing_side``, ``landed_in``, ``rally_length``, ``rally_over``,
@@ -58,19 +72,25 @@ in decisions, for gamma^k discounting. ``low_level`` is any batched callable
 
 from __future__ import annotations
 
-import warnings
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 from pettingzoo import AECEnv, ParallelEnv
+from pettingzoo.utils.conversions import parallel_to_aec_wrapper
+from pettingzoo.utils.wrappers import OrderEnforcingWrapper
 
 from rallysim.envs.rally_task import RallyConfig, RallyTask
 from rallysim.envs.rendering import RENDER_MODES, EnvView
 from rallysim.envs.simple_obs import TARGET_DEPTH_RANGE
 from rallysim.envs.turn_task import LowLevel, TurnTask
-from rallysim.envs.validation import validate_actions, validate_goals, validate_seed
+from rallysim.envs.validation import (
+    positive_int,
+    validate_actions,
+    validate_goals,
+    validate_seed,
+)
 from rallysim.envs.vector_base import NEXT_STEP, NativeVectorEnv
 
 AGENTS = ("player_0", "player_1")
@@ -130,12 +150,21 @@ def _slot_info(info: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
     return out
 
 
-def _ignore_options(options: dict | None, name: str) -> None:
-    """PettingZoo's API test requires envs to accept any reset options; ours take none, so
-    say so instead of failing."""
-    if options:
-        warnings.warn(f"{name} takes no reset options; ignoring {sorted(options, key=repr)}",
-                      stacklevel=3)
+def _check_options(options: Any) -> None:
+    """The rallies have no reset options. A dict is accepted and ignored without a word, as
+    PettingZoo's own envs do: its ``api_test`` resets with the made-up ``{"options": 1}`` and
+    requires that to pass, so unknown keys cannot be refused. A non-dict is a plain mistake."""
+    if options is not None and not isinstance(options, dict):
+        raise ValueError(f"options must be a dict or None, got {type(options).__name__}")
+
+
+def _check_max_cycles(max_cycles: Any) -> int | None:
+    return None if max_cycles is None else positive_int(max_cycles, "max_cycles")
+
+
+def _out_of_cycles(cycles: int, max_cycles: int | None) -> bool:
+    """Whether ``cycles`` steps since reset reach the ``max_cycles`` limit (None: none)."""
+    return max_cycles is not None and cycles >= max_cycles
 
 
 def _check_agent_actions(actions: Any, live: list[str]) -> None:
@@ -157,14 +186,18 @@ class SimpleRallyParallelEnv(ParallelEnv):
     metadata = {"name": "simple_rally_v0", "render_modes": RENDER_MODES, "render_fps": 10}
     rally: type[RallyTask] = RallyTask
 
-    def __init__(self, render_mode: str | None = None, **config: Any) -> None:
+    def __init__(self, render_mode: str | None = None, max_cycles: int | None = None,
+                 **config: Any) -> None:
+        self.max_cycles = _check_max_cycles(max_cycles)
         self._view = EnvView(render_mode, n_players=2, player=self.rally.player)
-        self.task = self.rally(1, RallyConfig(**config))
+        self.task = self.rally(1, RallyConfig.from_kwargs(**config))
         self.possible_agents = list(AGENTS)
         self.agents: list[str] = []
         self.render_mode = render_mode
         self.observation_spaces = {a: _obs_space(self.rally) for a in AGENTS}
         self.action_spaces = {a: _act_space(self.rally) for a in AGENTS}
+        self.state_space = _obs_space(self.rally)  # state() is player 0's observation
+        self.cycles = 0  # steps since reset, for max_cycles
 
     def observation_space(self, agent: str) -> spaces.Box:
         return self.observation_spaces[agent]
@@ -173,11 +206,12 @@ class SimpleRallyParallelEnv(ParallelEnv):
         return self.action_spaces[agent]
 
     def reset(self, seed: int | None = None, options: dict | None = None):
-        _ignore_options(options, self.metadata["name"])
+        _check_options(options)
         if validate_seed(seed) is not None:
             self.task.game.seed(np.array([0]), seed)
         self.task.reset(np.array([0]))
         self.agents = list(AGENTS)
+        self.cycles = 0
         self._view.new_episode()
         if self.render_mode == "human":
             self.render()
@@ -196,29 +230,66 @@ class SimpleRallyParallelEnv(ParallelEnv):
         size = self.rally.action_size
         a = np.stack([validate_actions(actions[agent], (size,)) for agent in AGENTS])
         rewards, term, trunc, info = self.task.step(a[None])
+        self.cycles += 1
+        truncated = bool(trunc[0]) or _out_of_cycles(self.cycles, self.max_cycles)
         obs = self.task.observe()[0]
         agents = list(self.agents)
         out = (
             {a: obs[i] for i, a in enumerate(agents)},
             {a: float(rewards[0, i]) for i, a in enumerate(agents)},
             {a: bool(term[0]) for a in agents},
-            {a: bool(trunc[0]) for a in agents},
+            {a: truncated for a in agents},
             {a: _agent_info(info, 0, i) for i, a in enumerate(agents)},
         )
-        if term[0] or trunc[0]:
+        if term[0] or truncated:
             self.agents = []
         if self.render_mode == "human":
             self.render()
         return out
 
     def state(self) -> np.ndarray:
-        """Player 0's full observation: the whole (planar) state from one side."""
+        """Player 0's observation (``state_space``): both bases, the shuttle and player 0's
+        arm, seen from player 0's side; the opponent's arm is not in it."""
         return self.task.observe()[0, 0]
 
 
 def parallel_env(**kwargs: Any) -> SimpleRallyParallelEnv:
     """The rally as a PettingZoo ``ParallelEnv`` (see the module docstring for arguments)."""
     return SimpleRallyParallelEnv(**kwargs)
+
+
+class SimpleRallyAECEnv(parallel_to_aec_wrapper):
+    """The parallel rally as a PettingZoo ``AECEnv`` (``raw_env``), through PettingZoo's own
+    ``parallel_to_aec`` conversion: ``player_0`` then ``player_1`` give their actions for one
+    decision, which runs when the last of them has acted. Arguments as ``parallel_env``."""
+
+    metadata = {**SimpleRallyParallelEnv.metadata, "is_parallelizable": True}
+    parallel: type[SimpleRallyParallelEnv] = SimpleRallyParallelEnv
+
+    def __init__(self, render_mode: str | None = None, **kwargs: Any) -> None:
+        super().__init__(self.parallel(render_mode=render_mode, **kwargs))
+
+    @property
+    def max_cycles(self) -> int | None:
+        return self.env.max_cycles
+
+    def step(self, action: Any) -> None:
+        agent = self.agent_selection
+        if not (self.terminations[agent] or self.truncations[agent]):
+            # refused at the agent's own step; the conversion would only pass it on to the
+            # parallel env's checks at the last agent's step
+            validate_actions(action, (self.parallel.rally.action_size,))
+        super().step(action)
+
+
+raw_env = SimpleRallyAECEnv
+
+
+def env(**kwargs: Any) -> OrderEnforcingWrapper:
+    """The rally as a PettingZoo ``AECEnv``, wrapped as PettingZoo wraps its own envs: the
+    ``OrderEnforcingWrapper`` refuses steps and reads before ``reset()``. No out-of-bounds
+    wrapper: the env clips actions itself and refuses NaN or a wrong shape with ValueError."""
+    return OrderEnforcingWrapper(raw_env(**kwargs))
 
 
 class SimpleRallyVectorEnv(NativeVectorEnv):
@@ -237,7 +308,7 @@ class SimpleRallyVectorEnv(NativeVectorEnv):
         self.render_mode = render_mode
         self._view = EnvView(render_mode, n_players=2, player=self.rally.player)
         self._views = [self._view]
-        self.task = self.rally(self.num_units, RallyConfig(**config), seed)
+        self.task = self.rally(self.num_units, RallyConfig.from_kwargs(**config), seed)
         self.single_observation_space = _obs_space(self.rally)
         self.single_action_space = _act_space(self.rally)
         self.observation_space = spaces.Box(-1.0, 1.0, (self.num_envs, self.rally.obs_size),
@@ -277,15 +348,18 @@ class SimpleRallyTurnAECEnv(AECEnv):
     rally: type[RallyTask] = RallyTask
 
     def __init__(self, low_level: LowLevel | str = "scripted", render_mode: str | None = None,
-                 **config: Any) -> None:
+                 max_cycles: int | None = None, **config: Any) -> None:
         super().__init__()
+        self.max_cycles = _check_max_cycles(max_cycles)
         self._view = EnvView(render_mode, n_players=2, player=self.rally.player)
-        self.turns = TurnTask(1, low_level, RallyConfig(**config), rally=self.rally)
+        self.turns = TurnTask(1, low_level, RallyConfig.from_kwargs(**config), rally=self.rally)
         self.possible_agents = list(AGENTS)
         self.agents = []
         self.render_mode = render_mode
         self.observation_spaces = {a: _obs_space(self.rally) for a in AGENTS}
         self.action_spaces = {a: _goal_space(self.rally) for a in AGENTS}
+        self.state_space = _obs_space(self.rally)  # state() is player 0's observation
+        self.cycles = 0  # turns played since reset, for max_cycles
 
     def observation_space(self, agent: str) -> spaces.Box:
         return self.observation_spaces[agent]
@@ -297,11 +371,12 @@ class SimpleRallyTurnAECEnv(AECEnv):
         return self.turns.rally.observe()[0, AGENTS.index(agent)]
 
     def reset(self, seed: int | None = None, options: dict | None = None) -> None:
-        _ignore_options(options, self.metadata["name"])
+        _check_options(options)
         if validate_seed(seed) is not None:
             self.turns.seed([seed])
         self.turns.reset(np.array([0]))
         self.agents = list(AGENTS)
+        self.cycles = 0
         self.rewards = {a: 0.0 for a in AGENTS}
         self._cumulative_rewards = {a: 0.0 for a in AGENTS}
         self.terminations = {a: False for a in AGENTS}
@@ -314,6 +389,10 @@ class SimpleRallyTurnAECEnv(AECEnv):
         """The rally at the start of the current turn, goals as red markers (``"rgb_array"``)."""
         return render_rally(self._view, self.turns.rally, 0, self.turns.goals[0])
 
+    def state(self) -> np.ndarray:
+        """Player 0's observation (``state_space``), as the parallel env's ``state()``."""
+        return self.turns.rally.observe()[0, 0]
+
     def close(self) -> None:
         self._view.close()
 
@@ -325,16 +404,18 @@ class SimpleRallyTurnAECEnv(AECEnv):
         goal = validate_goals(action, (self.rally.goal_size,))
         self._cumulative_rewards[agent] = 0.0
         out = self.turns.step(goal)
+        self.cycles += 1
+        truncated = bool(out["truncated"][0]) or _out_of_cycles(self.cycles, self.max_cycles)
         for i, a in enumerate(AGENTS):
             self.rewards[a] = float(out["reward"][0, i])
             self.infos[a] = {"decisions": int(out["decisions"][0]),
                              "rally_length": int(out["rally_length"][0]),
                              "hits": int(out["hits"][0, i]),
                              "score": out["score"][0, [i, 1 - i]].copy()}
-        if out["terminated"][0] or out["truncated"][0]:
+        if out["terminated"][0] or truncated:
             for a in AGENTS:
                 self.terminations[a] = bool(out["terminated"][0])
-                self.truncations[a] = bool(out["truncated"][0])
+                self.truncations[a] = truncated
         else:
             self.agent_selection = AGENTS[self.turns.turn_player[0]]
         self._accumulate_rewards()
@@ -358,7 +439,7 @@ class SimpleRallyTurnVectorEnv(NativeVectorEnv):
     def __init__(self, num_envs: int = 1, low_level: LowLevel | str = "scripted",
                  autoreset_mode: str = "next_step", seed: int | None = None,
                  render_mode: str | None = None, **config: Any) -> None:
-        cfg = RallyConfig(**config)
+        cfg = RallyConfig.from_kwargs(**config)
         if cfg.mode != "cooperative":
             raise ValueError("the single-agent turn view is cooperative; use turn_env() for "
                              "the competitive game")

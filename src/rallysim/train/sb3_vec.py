@@ -1,5 +1,8 @@
 """Stable-Baselines3 ``VecEnv`` over one of RallySim's natively batched Gymnasium vector envs.
 
+Users build it by env id with ``rallysim.sb3.make_vec_env`` (the public entry point, also what
+``rallysim train`` uses for the low-level tasks); wrapping a vector env by hand works too.
+
 SB3's own ``DummyVecEnv`` holds one Python env object per environment; RallySim's vector envs
 step all N environments in one call, so this adapter only translates conventions:
 

@@ -18,8 +18,8 @@ import numpy as np
 from gymnasium.wrappers.vector import RescaleAction
 
 from rallysim.envs.rally_task import RallyConfig
+from rallysim.envs.registration import HUMANLIKE_RETURN_ID, SIMPLE_RETURN_ID
 from rallysim.envs.simple_rally_v0 import SimpleRallyTurnVectorEnv, SimpleRallyVectorEnv
-from rallysim.envs.simple_return_v0 import SimpleReturnVectorEnv
 from rallysim.eval.low_eval import evaluate_return
 from rallysim.eval.rally_eval import rally_lengths_direct, rally_lengths_turns
 from rallysim.train.config import TrainConfig
@@ -62,6 +62,7 @@ def frozen_low_level(spec: str) -> Callable[[np.ndarray, np.ndarray], np.ndarray
 
 def make_env(config: TrainConfig) -> NativeVecEnv:
     """The stage's training env behind SB3's ``VecEnv`` API (same-step autoreset)."""
+    from rallysim.sb3 import make_vec_env
     from rallysim.train.sb3_vec import NativeVecEnv
 
     n, seed = config.n_envs, config.seed
@@ -73,16 +74,16 @@ def make_env(config: TrainConfig) -> NativeVecEnv:
         return NativeVecEnv(HumanLikeRallyTurnVectorEnv(n, low_level=low, seed=seed,
                                                         autoreset_mode="same_step",
                                                         shuttle=config.shuttle))
+    # The low levels are registered ids with a batched vector entry point: built through the
+    # public adapter (rallysim.sb3.make_vec_env), so what users get is what training uses.
     if config.env == "humanlike":
-        from rallysim.envs.humanlike_return_v0 import HumanLikeReturnVectorEnv
-
-        return NativeVecEnv(HumanLikeReturnVectorEnv(n, shuttle=config.shuttle, seed=seed,
-                                                     autoreset_mode="same_step"))
+        return make_vec_env(HUMANLIKE_RETURN_ID, n, seed=seed,
+                            env_kwargs={"shuttle": config.shuttle})
     if config.stage == "low":
-        venv = SimpleReturnVectorEnv(n, shuttle=config.shuttle, seed=seed,
-                                     autoreset_mode="same_step", incoming=config.incoming,
-                                     keep_bodies=config.keep_bodies)
-    elif config.stage == "high":
+        return make_vec_env(SIMPLE_RETURN_ID, n, seed=seed,
+                            env_kwargs={"shuttle": config.shuttle, "incoming": config.incoming,
+                                        "keep_bodies": config.keep_bodies})
+    if config.stage == "high":
         turns = SimpleRallyTurnVectorEnv(n, low_level=frozen_low_level(config.low_policy),
                                          autoreset_mode="same_step", seed=seed,
                                          shuttle=config.shuttle)

@@ -1,0 +1,127 @@
+"""Stable-Baselines3 on RallySim's fast path: ``make_vec_env(env_id, n_envs, seed=...)``.
+
+SB3's own ``stable_baselines3.common.env_util.make_vec_env`` builds one Python env object per
+environment and steps them one after another (``DummyVecEnv``). RallySim's registered ids also
+have a *vector entry point*: one batched MuJoCo model that steps all N environments in one
+call. This module's ``make_vec_env`` takes the same first arguments as SB3's and returns an SB3
+``VecEnv`` over that batched env, so a training script changes one import::
+
+    from rallysim.sb3 import make_vec_env      # instead of stable_baselines3's
+    env = make_vec_env("RallySim/SimpleReturn-v0", n_envs=256, seed=0)
+    model = PPO("MlpPolicy", env, ...)
+
+The returned ``NativeVecEnv`` (``rallysim.train.sb3_vec``) follows SB3's conventions: a
+finished environment is reset in the same step, its last observation is
+``infos[i]["terminal_observation"]``, ``infos[i]["TimeLimit.truncated"]`` says whether the
+episode was cut by the time limit (SB3 then bootstraps its value), and
+``infos[i]["episode"] = {"r", "l", "t"}`` is written as SB3's ``Monitor`` writes it (so
+``ep_rew_mean`` shows in the logs without a ``Monitor`` wrapper). Environment *i* of a batch
+seeded *s* replays a single environment seeded *s + i*, as with SB3's own ``make_vec_env``.
+
+Needs Stable-Baselines3 (the ``train`` extra).
+"""
+
+from __future__ import annotations
+
+import inspect
+from typing import Any
+
+import gymnasium as gym
+from gymnasium.envs.registration import load_env_creator
+
+from rallysim.envs.validation import positive_int, validate_seed
+from rallysim.envs.vector_base import NativeVectorEnv
+
+try:
+    from rallysim.train.sb3_vec import NativeVecEnv
+except ModuleNotFoundError as err:  # SB3 (or torch) is an extra, not a dependency
+    raise ModuleNotFoundError(f"rallysim.sb3 needs Stable-Baselines3 ({err}): install "
+                              "torch==2.13.0, then rallysim[train]") from err
+
+# (``import rallysim``, which runs before this module, registered the ids looked up here)
+
+__all__ = ["NativeVecEnv", "make_vec_env", "native_ids"]
+
+# set by this function, not by the caller: the batch size and the autoreset SB3 needs
+_RESERVED_KWARGS = ("num_envs", "autoreset_mode", "seed")
+_SB3_HINT = ("stable_baselines3.common.env_util.make_vec_env(env_id, n_envs) (one Python env "
+             "per environment)")
+
+
+def native_ids() -> list[str]:
+    """The registered ids whose vector entry point is one of RallySim's batched envs."""
+    return sorted(k for k, spec in gym.registry.items() if _native_class(spec) is not None)
+
+
+def _native_class(spec: gym.envs.registration.EnvSpec) -> type | None:
+    entry = spec.vector_entry_point
+    if entry is None:
+        return None
+    # Loading a string entry point imports its module; only RallySim's are loaded here, so
+    # listing the ids never imports another package's (possibly heavy or missing) modules.
+    if isinstance(entry, str) and not entry.startswith("rallysim."):
+        return None
+    creator = load_env_creator(entry) if isinstance(entry, str) else entry
+    native = isinstance(creator, type) and issubclass(creator, NativeVectorEnv)
+    return creator if native else None
+
+
+def _check_kwargs(env_id: str, cls: Any, kwargs: dict[str, Any]) -> None:
+    """Name an argument the env does not take (instead of a ``TypeError`` from deep inside
+    Gymnasium's ``make_vec``)."""
+    params = inspect.signature(cls.__init__).parameters
+    if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params.values()):
+        return  # the env checks its own extra arguments (the rally's RallyConfig)
+    valid = [k for k in params if k not in ("self", *_RESERVED_KWARGS)]
+    unknown = sorted(k for k in kwargs if k not in valid)
+    if unknown:
+        raise ValueError(f"{env_id} takes no argument(s) {unknown}; its env_kwargs: "
+                         f"{', '.join(valid)}")
+
+
+def make_vec_env(env_id: str, n_envs: int = 1, seed: int | None = None,
+                 env_kwargs: dict[str, Any] | None = None) -> NativeVecEnv:
+    """An SB3 ``VecEnv`` of ``n_envs`` environments of ``env_id`` in one batched MuJoCo model.
+
+    ``seed``: environment *i* is seeded ``seed + i`` at the first ``reset()`` (as SB3's
+    ``make_vec_env`` does; an algorithm given its own ``seed`` re-seeds the same way).
+    ``env_kwargs``: the env's own arguments (``shuttle``, ``target_depth_range``,
+    ``max_decisions``, ...; see its docs). Raises ``ValueError`` for an id that is not
+    registered or has no RallySim vector entry point, saying what to use instead.
+    """
+    if not isinstance(env_id, str):
+        raise ValueError(f"env_id must be a registered id string, got {type(env_id).__name__}")
+    n_envs = positive_int(n_envs, "n_envs")
+    seed = validate_seed(seed)
+    if not isinstance(env_kwargs, dict | None):
+        raise ValueError(f"env_kwargs must be a dict, got {type(env_kwargs).__name__}")
+    kwargs = dict(env_kwargs or {})
+    reserved = [k for k in _RESERVED_KWARGS if k in kwargs]
+    if reserved:
+        raise ValueError(f"env_kwargs may not set {reserved}: make_vec_env sets them (use its "
+                         "n_envs and seed arguments; the autoreset is always same-step)")
+    try:
+        spec = gym.spec(env_id)
+    except gym.error.Error as err:  # NameNotFound, VersionNotFound, a malformed id, ...
+        raise ValueError(f"unknown environment id {env_id!r} ({err}); RallySim's batched ids: "
+                         f"{', '.join(native_ids())}") from None
+    if spec.vector_entry_point is None:
+        raise ValueError(f"{env_id!r} has no native vector entry point (no batched env): use "
+                         f"{_SB3_HINT}; RallySim's batched ids: {', '.join(native_ids())}")
+    cls = _native_class(spec)
+    if cls is None:
+        raise ValueError(f"the vector entry point of {env_id!r} ({spec.vector_entry_point}) "
+                         f"is not a RallySim batched env, which this adapter needs for its "
+                         f"same-step autoreset: use {_SB3_HINT}")
+    _check_kwargs(env_id, cls, kwargs)
+    if seed is not None:
+        # also to the constructor, so nothing drawn before the first reset is unseeded
+        kwargs["seed"] = seed
+    venv = gym.make_vec(env_id, num_envs=n_envs, vectorization_mode="vector_entry_point",
+                        autoreset_mode="same_step", **kwargs)
+    vec = NativeVecEnv(venv)
+    if seed is not None:
+        # SB3's convention: seeds seed + i are used at the next reset (SB3's VecEnv.seed(None)
+        # would draw a random seed instead, so it is called only for a given seed)
+        vec.seed(seed)
+    return vec
