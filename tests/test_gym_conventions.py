@@ -301,3 +301,29 @@ def test_torchrl_rollout_matches_the_vector_env_stepped_directly():
     truncated = nxt["truncated"][..., 0].numpy()
     assert np.argwhere(terminated).tolist() == [[0, 16]]
     assert np.argwhere(truncated).tolist() == [[1, 17], [2, 17], [3, 17]]
+
+
+@pytest.mark.parametrize(("render_envs", "shape"), [(1, (360, 640, 3)), (4, (720, 1280, 3))])
+def test_sb3_vec_env_renders_the_envs_the_batch_draws(tmp_path, render_envs, shape):
+    pytest.importorskip("stable_baselines3", reason="rallysim.sb3 needs Stable-Baselines3")
+    if (problem := gl_problem()) is not None:
+        pytest.skip(problem)
+    from stable_baselines3.common.vec_env import VecVideoRecorder
+
+    from rallysim.sb3 import make_vec_env
+
+    venv = make_vec_env("RallySim/SimpleReturn-v0", 4, seed=0,
+                        env_kwargs={"render_mode": "rgb_array", "render_envs": render_envs})
+    venv.reset()
+    frames = venv.venv.render()
+    image = venv.render()
+    assert image.shape == shape  # SB3 tiles the drawn frames: 1 alone, 4 as a 2 x 2 grid
+    np.testing.assert_array_equal(image[:360, :640], frames[0])
+    assert image.std() > 20  # a court, not a blank image
+    recorder = VecVideoRecorder(venv, str(tmp_path), lambda step: step == 0, video_length=5)
+    recorder.reset()
+    for _ in range(5):
+        recorder.step(np.zeros((4, 3), np.float32))
+    recorder.close()
+    videos = list(tmp_path.glob("*.mp4"))
+    assert len(videos) == 1 and videos[0].stat().st_size > 1000

@@ -253,11 +253,32 @@ def test_bad_max_cycles_is_refused(make, value):
 
 
 def test_unknown_arguments_are_refused_by_name():
-    with pytest.raises(ValueError, match=r"unknown rally argument\(s\) \['max_hit'\]"):
+    # Python's wording and type: TorchRL's GymEnv retries without an argument on exactly this
+    with pytest.raises(TypeError, match=r"unexpected keyword argument 'max_hit'; valid "
+                                        r"arguments: render_mode, max_cycles, shuttle, .*max_hits"):
         simple_rally_v0.parallel_env(max_hit=3)
+    with pytest.raises(TypeError, match=r"'low_levl'; valid arguments: low_level, "):
+        simple_rally_v0.turn_env(low_levl="scripted")
     # the Gymnasium views limit episodes with Gymnasium's TimeLimit, not max_cycles
-    with pytest.raises(ValueError, match="max_cycles"):
+    with pytest.raises(TypeError, match="'max_cycles'; valid arguments: num_rallies, "):
         simple_rally_v0.SimpleRallyVectorEnv(2, max_cycles=5)
+
+
+@pytest.mark.parametrize(("env_id", "goal_size"), [("RallySim/SimpleRallyTurn-v0", 1),
+                                                  ("RallySim/SimpleRallyTurn-v1", 1),
+                                                  ("RallySim/HumanLikeRallyTurn-v0", 3)])
+def test_torchrl_gym_env_opens_the_turn_ids(env_id, goal_size):
+    # GymEnv passes frameskip= first and falls back on Python's unexpected-argument TypeError
+    gym_env = pytest.importorskip("torchrl.envs.libs.gym").GymEnv
+    env = gym_env(env_id)
+    env.set_seed(0)
+    rollout = env.rollout(3)
+    steps = rollout["next", "reward"].shape[0]
+    done = rollout["next", "done"][:, 0].tolist()
+    # a rally may end on a random goal before 3 turns; the rollout then stops at that turn
+    assert 1 <= steps <= 3 and done == [False] * (steps - 1) + [steps < 3 or done[-1]]
+    assert rollout["next", "reward"].shape == (steps, 1)
+    assert env.action_spec.shape == (goal_size,)
 
 
 # --- state ------------------------------------------------------------------------------------

@@ -14,6 +14,7 @@ won by 2, capped at 30; one episode is one game. A rally reaching the hit cap is
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass, fields
 from typing import Any
 
@@ -57,14 +58,17 @@ class RallyConfig:
             raise ValueError("need 1 <= points_to_win <= max_points and win_by >= 1")
 
     @classmethod
-    def from_kwargs(cls, **kwargs: Any) -> RallyConfig:
-        """The rules from a view's keyword arguments. An unknown name raises ``ValueError``
-        listing the valid ones, rather than the dataclass's ``TypeError`` about
-        ``__init__()`` (which names an internal class the caller never wrote)."""
+    def from_kwargs(cls, kwargs: dict[str, Any], view_args: Iterable[str] = ()) -> RallyConfig:
+        """The rules from a view's keyword arguments. An unknown name raises ``TypeError`` in
+        Python's own wording (clients such as TorchRL's ``GymEnv`` retry without an optional
+        argument on exactly that error) and lists every valid name: the view's own
+        ``view_args`` and the rules' fields."""
         valid = [f.name for f in fields(cls)]
         unknown = sorted(set(kwargs) - set(valid))
         if unknown:
-            raise ValueError(f"unknown rally argument(s) {unknown}; valid: {valid}")
+            names = ", ".join([*view_args, *valid])
+            raise TypeError(f"got an unexpected keyword argument {unknown[0]!r}; valid "
+                            f"arguments: {names}")
         return cls(**kwargs)
 
 

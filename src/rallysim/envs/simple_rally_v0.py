@@ -72,6 +72,7 @@ in decisions, for gamma^k discounting. ``low_level`` is any batched callable
 
 from __future__ import annotations
 
+import inspect
 from typing import Any
 
 import gymnasium as gym
@@ -111,6 +112,15 @@ def _goal_space(rally: type[RallyTask] = RallyTask) -> spaces.Box:
     if rally.goal_size == 1:
         return spaces.Box(*TARGET_DEPTH_RANGE, (1,), np.float32)
     return spaces.Box(-1.0, 1.0, (rally.goal_size,), np.float32)
+
+
+def rally_config(view: object, config: dict[str, Any]) -> RallyConfig:
+    """A view's rules from its extra keyword arguments; an unknown one is named along with every
+    valid argument, the view constructor's own included."""
+    params = inspect.signature(type(view).__init__).parameters.values()
+    named = (inspect.Parameter.POSITIONAL_OR_KEYWORD, inspect.Parameter.KEYWORD_ONLY)
+    own = [p.name for p in params if p.kind in named and p.name != "self"]
+    return RallyConfig.from_kwargs(config, own)
 
 
 def render_rally(view: EnvView, task: RallyTask, env: int,
@@ -190,7 +200,7 @@ class SimpleRallyParallelEnv(ParallelEnv):
                  **config: Any) -> None:
         self.max_cycles = _check_max_cycles(max_cycles)
         self._view = EnvView(render_mode, n_players=2, player=self.rally.player)
-        self.task = self.rally(1, RallyConfig.from_kwargs(**config))
+        self.task = self.rally(1, rally_config(self, config))
         self.possible_agents = list(AGENTS)
         self.agents: list[str] = []
         self.render_mode = render_mode
@@ -308,7 +318,7 @@ class SimpleRallyVectorEnv(NativeVectorEnv):
         self.render_mode = render_mode
         self._view = EnvView(render_mode, n_players=2, player=self.rally.player)
         self._views = [self._view]
-        self.task = self.rally(self.num_units, RallyConfig.from_kwargs(**config), seed)
+        self.task = self.rally(self.num_units, rally_config(self, config), seed)
         self.single_observation_space = _obs_space(self.rally)
         self.single_action_space = _act_space(self.rally)
         self.observation_space = spaces.Box(-1.0, 1.0, (self.num_envs, self.rally.obs_size),
@@ -352,7 +362,7 @@ class SimpleRallyTurnAECEnv(AECEnv):
         super().__init__()
         self.max_cycles = _check_max_cycles(max_cycles)
         self._view = EnvView(render_mode, n_players=2, player=self.rally.player)
-        self.turns = TurnTask(1, low_level, RallyConfig.from_kwargs(**config), rally=self.rally)
+        self.turns = TurnTask(1, low_level, rally_config(self, config), rally=self.rally)
         self.possible_agents = list(AGENTS)
         self.agents = []
         self.render_mode = render_mode
@@ -439,7 +449,7 @@ class SimpleRallyTurnVectorEnv(NativeVectorEnv):
     def __init__(self, num_envs: int = 1, low_level: LowLevel | str = "scripted",
                  autoreset_mode: str = "next_step", seed: int | None = None,
                  render_mode: str | None = None, **config: Any) -> None:
-        cfg = RallyConfig.from_kwargs(**config)
+        cfg = rally_config(self, config)
         if cfg.mode != "cooperative":
             raise ValueError("the single-agent turn view is cooperative; use turn_env() for "
                              "the competitive game")

@@ -146,7 +146,13 @@ class NativeVecEnv(VecEnv):
         return [False] * self._count(indices)
 
     def get_images(self) -> Sequence[np.ndarray | None]:
-        return [None] * self.num_envs
+        """The frames of the environments the batched env draws (its first ``render_envs``;
+        one rally for the rally envs), so SB3's ``render()`` and ``VecVideoRecorder`` tile
+        those, not one image per environment."""
+        frames = self.venv.render()
+        if frames is None:
+            return [None] * self.num_envs
+        return list(frames) if isinstance(frames, tuple | list) else [frames]
 
 
 def _split_info(info: dict[str, Any], n: int) -> list[dict[str, Any]]:
