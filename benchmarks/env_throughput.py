@@ -1,4 +1,4 @@
-"""Throughput and memory benchmark of ``RallySim/SimpleReturn-v0``'s batched vector env.
+"""Throughput and memory of ``RallySim/SimpleReturn-v0``: the batched vector env and the single env.
 
 Run: ``python benchmarks/env_throughput.py [--quick] [--json PATH] [--strict]``
 
@@ -14,6 +14,10 @@ ours
     ``SimpleReturnVectorEnv(num_envs=N, seed=0, autoreset_mode="same_step")`` at N = 1, 64,
     256 with uniform random actions in [-1, 1], pre-generated so that drawing them is not timed.
     Extra rows run ``ScriptedController.act_return`` in the loop (policy cost included).
+ours, single env
+    ``gym.make("RallySim/SimpleReturn-v0")`` and ``gym.make("RallySim/HumanLikeReturn-v0")``
+    (Gymnasium's wrappers included) with pre-generated uniform random actions, reset when an
+    episode ends: the way one environment is used without a vector env.
 (a1) single-world raw ceiling
     ``mujoco.mj_step`` on ``build_simple_world(1, 1)``, the MJCF model of one SIMPLE player, in
     a tight Python loop and through ``mujoco.rollout`` (a C loop: no Python per step). The
@@ -29,6 +33,8 @@ ours
     (decisions x ``frame_skip``, read from the env; 2 by default), since a decision means
     different work in the two envs. Its rendering stack imports ``glfw`` and ``imageio`` at
     module level; where they are missing, empty placeholder modules stand in (never rendered).
+    Also as one ``gym.make("InvertedPendulum-v5")``, reset when an episode ends, against the
+    single envs above.
 memory
     In fresh subprocesses, so that this process's allocations do not count: the peak RSS of
     building the N = 256 env and running it, and the RSS growth over a 1,000,000-decision run
@@ -85,6 +91,11 @@ MIB = 1024 * 1024
 TARGET_DECISIONS = 40_000.0
 TARGET_CEILING_SHARE = 0.60
 TARGET_VS_PENDULUM = 3.0
+TARGET_SINGLE_DECISIONS = 10_000.0  # gym.make("RallySim/SimpleReturn-v0")
+TARGET_SINGLE_VS_PENDULUM = 1.0  # per physics step, against one InvertedPendulum-v5
+TARGET_SINGLE_HUMANLIKE_DECISIONS = 2_500.0  # gym.make("RallySim/HumanLikeReturn-v0")
+SIMPLE_ID, HUMANLIKE_ID, PENDULUM_ID = ("RallySim/SimpleReturn-v0", "RallySim/HumanLikeReturn-v0",
+                                       "InvertedPendulum-v5")
 TARGET_PEAK_MB = 300.0
 TARGET_GROWTH_MB = 5.0
 
@@ -182,6 +193,42 @@ def ours_scripted_stepper(n: int) -> Stepper:
             obs[0] = env.step(controller.act_return(obs[0]))[0]
 
     return step
+
+
+def single_stepper(env_id: str) -> tuple[Stepper, gym.Env]:
+    """``gym.make(env_id)`` stepped with pre-drawn uniform random actions, reset at each
+    episode's end (as a training or evaluation loop over one environment does)."""
+    env = gym.make(env_id)
+    env.reset(seed=0)
+    space = env.action_space
+    batches = np.random.default_rng(0).uniform(space.low, space.high,
+                                               (ACTION_BUFFER, *space.shape))
+    actions = itertools.cycle(list(batches.astype(space.dtype)))
+
+    def step(k: int) -> None:
+        for _ in range(k):
+            _, _, terminated, truncated, _ = env.step(next(actions))
+            if terminated or truncated:
+                env.reset()
+
+    return step, env
+
+
+def bench_single(key: str, label: str, env_id: str, budget: Budget,
+                 physics_per_decision: int | None = None) -> Row:
+    """A single-env row; physics steps per decision are the env's ``frame_skip`` if not given."""
+    try:
+        stubbed = _stub_render_modules()
+        step, env = single_stepper(env_id)
+    except Exception as exc:  # a missing dependency, a Gymnasium without the env, ...
+        return Row(key, label, 1, None, None, None,
+                   f"cannot be created: {type(exc).__name__}: {exc}")
+    per = physics_per_decision or int(env.unwrapped.frame_skip)
+    calls = calls_per_second(step, budget)
+    note = f"{per} physics steps per decision"
+    if stubbed:
+        note += f"; placeholder {', '.join(stubbed)} (render-only imports)"
+    return Row(key, label, 1, calls, calls, calls * per, note)
 
 
 # -- (a) raw MuJoCo ----------------------------------------------------------------------------
@@ -417,6 +464,11 @@ def ratios(rows: dict[str, Row]) -> dict[str, dict[str, float | None]]:
     return out
 
 
+def single_ratio(rows: dict[str, Row]) -> float | None:
+    """The single SIMPLE env's physics steps/s divided by one InvertedPendulum-v5's."""
+    return _ratio(rows["single_simple"].physics_per_s, rows["single_pendulum"].physics_per_s)
+
+
 def ratio_table(rat: dict[str, dict[str, float | None]]) -> str:
     lines = ["| N | ours ÷ (a1) ceiling | ours ÷ (a1) loop | ours ÷ (a2) loop "
              "| ours ÷ (a2) rollout | ours ÷ (b) InvertedPendulum-v5 |",
@@ -446,6 +498,9 @@ def targets(rows: dict[str, Row], rat: dict[str, dict[str, float | None]],
         return None if v is None else (v < g if strict else v <= g)
 
     dec = rows[f"ours_{N_TARGET}"].decisions_per_s
+    single, single_humanlike = (rows["single_simple"].decisions_per_s,
+                                rows["single_humanlike"].decisions_per_s)
+    vs_pendulum = single_ratio(rows)
     return [
         check("decisions/s at N=256", dec, f">= {TARGET_DECISIONS:,.0f}",
               at_least(dec, TARGET_DECISIONS)),
@@ -459,6 +514,14 @@ def targets(rows: dict[str, Row], rat: dict[str, dict[str, float | None]],
               below(peak, TARGET_PEAK_MB, strict=False), "MiB"),
         check(f"RSS growth, 10 % -> 100 % of {growth_decisions:,} decisions", growth,
               f"< {TARGET_GROWTH_MB:.0f}", below(growth, TARGET_GROWTH_MB, strict=True), "MiB"),
+        check(f"decisions/s, single env (gym.make {SIMPLE_ID})", single,
+              f">= {TARGET_SINGLE_DECISIONS:,.0f}", at_least(single, TARGET_SINGLE_DECISIONS)),
+        check(f"physics steps/s, single env ÷ single {PENDULUM_ID}", vs_pendulum,
+              f">= {TARGET_SINGLE_VS_PENDULUM:.1f}",
+              at_least(vs_pendulum, TARGET_SINGLE_VS_PENDULUM), "x"),
+        check(f"decisions/s, single env (gym.make {HUMANLIKE_ID})", single_humanlike,
+              f">= {TARGET_SINGLE_HUMANLIKE_DECISIONS:,.0f}",
+              at_least(single_humanlike, TARGET_SINGLE_HUMANLIKE_DECISIONS)),
         check("(info) physics steps/s ÷ (a2) batched raw loop, N=256", r256["a2_loop"], "—",
               None, "x"),
     ]
@@ -502,6 +565,14 @@ def throughput_rows(budget: Budget) -> list[Row]:
         rows += bench_raw(f"a2_{n}", "(a2) raw mj_step, N worlds", build_simple_world(n, 1), n,
                           budget)
     rows += [bench_pendulum(n, budget) for n in NS]
+    rows += [
+        bench_single("single_simple", f"rallysim gym.make({SIMPLE_ID!r}), random actions",
+                     SIMPLE_ID, budget, PHYSICS_STEPS_PER_DECISION),
+        bench_single("single_humanlike", f"rallysim gym.make({HUMANLIKE_ID!r}), random actions",
+                     HUMANLIKE_ID, budget, PHYSICS_STEPS_PER_DECISION),
+        bench_single("single_pendulum", f"(b) gym.make({PENDULUM_ID!r}), random actions",
+                     PENDULUM_ID, budget),
+    ]
     return rows
 
 
@@ -539,6 +610,8 @@ def main(argv: list[str] | None = None) -> int:
     print("## Throughput (per environment; best of "
           f"{budget.repeats} x {budget.repeat_s} s)\n\n{throughput_table(rows)}\n")
     print(f"## Ours (random actions) ÷ references, physics steps/s\n\n{ratio_table(rat)}\n")
+    print(f"Single env ÷ single {PENDULUM_ID}, physics steps/s: "
+          f"{_fmt(single_ratio(by_key), 2)}\n")
     print(f"## Memory (N = {N_TARGET}, fresh subprocesses)\n\n{memory_table(memory)}\n")
     print(f"## Targets\n\n{target_table(checks)}\n")
     print(f"total time: {elapsed:.1f} s")
@@ -546,7 +619,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.json:
         with open(args.json, "w") as f:
             json.dump({"machine": info, "budget": asdict(budget),
-                       "rows": [asdict(r) for r in rows], "ratios": rat, "memory": memory,
+                       "rows": [asdict(r) for r in rows], "ratios": rat,
+                       "single_vs_pendulum": single_ratio(by_key), "memory": memory,
                        "targets": checks, "total_seconds": elapsed}, f, indent=2)
     failed = any(c["status"] == "FAIL" for c in checks)
     return 1 if args.strict and failed else 0

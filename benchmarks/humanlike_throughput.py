@@ -11,10 +11,12 @@ Rows, all measured in one run:
 ours
     ``HumanLikeReturnVectorEnv(N, autoreset_mode="same_step")`` with uniform random actions in
     [-1, 1] (pre-drawn, so drawing them is not timed), at N = 64 and 256; and at N = 256 driven
-    by ``ScriptedSwing`` (policy cost included).
+    by ``ScriptedSwing`` (policy cost included); and one ``gym.make("RallySim/HumanLikeReturn-v0")``
+    (Gymnasium's wrappers included), reset when an episode ends.
 bodies
-    ``HumanLikeBodies.physics_step`` alone at the same N with random actions held for 5 steps:
-    the servo solve, MuJoCo and the joint stops, without the rulebook, observations or API.
+    ``HumanLikeBodies.physics_step`` alone at N = 1, 64 and 256 with random actions held for 5
+    steps: the servo solve, MuJoCo and the joint stops, without the rulebook, observations or
+    API.
 (a2) raw batched model
     ``mujoco.mj_step`` in a Python loop on ``build_humanlike_world(N, 1)``, the very model the
     env steps (one call = N physics steps), with motors holding the players still (MuJoCo's cost
@@ -39,6 +41,7 @@ import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
 
+import gymnasium as gym
 import mujoco
 import numpy as np
 
@@ -52,6 +55,7 @@ except ImportError:  # pragma: no cover - older or trimmed bindings
     mj_rollout = None
 
 NS = (64, 256)
+SINGLE_ID = "RallySim/HumanLikeReturn-v0"
 TARGET_N, TARGET_DECISIONS = 256, 10_000.0
 STEPS = PHYSICS_STEPS_PER_DECISION
 
@@ -110,6 +114,19 @@ def env_stepper(n: int, scripted: bool = False) -> Callable[[], None]:
     return lambda: env.step(next(actions))
 
 
+def single_stepper() -> Callable[[], None]:
+    """One decision of ``gym.make(SINGLE_ID)``, reset when its episode ends."""
+    env = gym.make(SINGLE_ID)
+    env.reset(seed=0)
+    actions = random_actions(1, (N_ACTIONS,))
+
+    def step() -> None:
+        _, _, terminated, truncated, _ = env.step(next(actions)[0])
+        if terminated or truncated:
+            env.reset()
+    return step
+
+
 def bodies_stepper(n: int) -> Callable[[], None]:
     """One decision's worth (5 physics steps) of the bodies alone."""
     b = HumanLikeBodies(n, 1)
@@ -157,7 +174,10 @@ def throughput_rows(budget: Budget) -> list[Row]:
     rate = calls_per_second(env_stepper(TARGET_N, scripted=True), budget) * TARGET_N
     rows.append(Row(f"scripted_{TARGET_N}", "HumanLikeReturnVectorEnv + ScriptedSwing",
                     TARGET_N, rate, rate * STEPS))
-    for n in NS:
+    rate = calls_per_second(single_stepper(), budget)
+    rows.append(Row("single", f"gym.make({SINGLE_ID!r}), random actions", 1, rate,
+                    rate * STEPS))
+    for n in (1, *NS):
         rate = calls_per_second(bodies_stepper(n), budget) * n
         rows.append(Row(f"bodies_{n}", "HumanLikeBodies.physics_step only, random actions", n,
                         rate, rate * STEPS))

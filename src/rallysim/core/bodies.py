@@ -13,6 +13,7 @@ import mujoco
 import numpy as np
 
 from rallysim.assets import asset_path
+from rallysim.core.lanes import ARRAYS, SCALARS, ArrayLanes, Ops, ScalarLanes
 from rallysim.core.rules import FORWARD
 
 SIMPLE_ACTIONS = ("target_orientation", "force", "movement")
@@ -34,6 +35,15 @@ class PlayerBodies(Protocol):
     def reset(self, envs: np.ndarray, base_x: np.ndarray, pose: Any = 0.0) -> None: ...
     def set_actions(self, actions: np.ndarray) -> None: ...
     def physics_step(self) -> None: ...
+    def lanes(self, ops: Ops) -> Any:
+        """The bodies' lanes (``rallysim.core.lanes``) for ``step_lanes`` and ``face_frame``,
+        with at least ``base_x`` and ``base_moved``."""
+    def store_lanes(self, lanes: Any) -> None:
+        """Write scalar lanes back to the arrays (array lanes already are them)."""
+    def step_lanes(self, lanes: Any, ops: Ops) -> None:
+        """One physics step (``physics_step``) on lanes."""
+    def face_frame(self, lanes: Any, own: tuple, ops: Ops) -> tuple:
+        """Own-frame point lanes (x, y, z) -> the same point in each face's frame."""
     def to_face_frame(self, own: np.ndarray, out: np.ndarray) -> None:
         """Own-frame points (N, P, 3) -> each face's frame, written to ``out``."""
     def racket_velocity(self, env: np.ndarray, player: np.ndarray, t: np.ndarray) -> np.ndarray:
@@ -85,6 +95,7 @@ class SimpleBodies(MjDataViews):
         if n_envs < 1 or n_players not in (1, 2):
             raise ValueError(f"need n_envs >= 1 and n_players in (1, 2), got {n_envs}, {n_players}")
         self.n_envs, self.n_players, self.dt = n_envs, n_players, dt
+        self.ops: Ops = SCALARS if (n_envs, n_players) == (1, 1) else ARRAYS
         self.model = build_simple_world(n_envs, n_players, dt)
         self.data = mujoco.MjData(self.model)
         self._bind_views()
@@ -105,13 +116,11 @@ class SimpleBodies(MjDataViews):
         self.base_moved = np.zeros(shape, dtype=bool)
         self._neg_limit = np.zeros(shape)
         self._base_step = np.zeros(shape)  # metres per physics step
-        self._buf_x = np.zeros(shape)
-        self._buf_w = np.zeros(shape)
         self._theta0 = np.zeros(shape)  # arm angles at the start of the last physics step
         self._sync_mocap()
         mujoco.mj_forward(self.model, self.data)
 
-    _views = ("theta", "omega", "torque", "mocap")
+    _views = ("theta", "omega", "torque", "mocap", "_lane_cache")
 
     def _bind_views(self) -> None:
         """Views into MuJoCo's memory: writing them moves the bodies."""
@@ -120,6 +129,7 @@ class SimpleBodies(MjDataViews):
         self.omega = self.data.qvel.reshape(shape)
         self.torque = self.data.ctrl.reshape(shape)
         self.mocap = self.data.mocap_pos.reshape((*shape, 3))
+        self._lane_cache: dict[str, np.ndarray] | None = None  # made by lane_views
 
     # -- state ---------------------------------------------------------------------------------
     def reset(self, envs: np.ndarray, base_x: np.ndarray, theta: np.ndarray | float = 0.0) -> None:
@@ -138,40 +148,71 @@ class SimpleBodies(MjDataViews):
 
     def set_actions(self, actions: np.ndarray) -> None:
         """Hold ``actions`` (N, P, 3), already clipped to [-1, 1], for the next physics steps."""
-        np.multiply(actions[..., 0], self.max_target_angle, out=self.target)
-        np.multiply(actions[..., 1] + 1.0, 0.5 * self.max_torque, out=self.torque_limit)
-        np.negative(self.torque_limit, out=self._neg_limit)
-        np.multiply(actions[..., 2], self.max_base_speed * self.dt, out=self._base_step)
+        ops = self.ops
+        target, force, movement = ops.columns(actions)
+        torque = (force + 1.0) * (0.5 * self.max_torque)
+        ops.put(self.target, target * self.max_target_angle)
+        ops.put(self.torque_limit, torque)
+        ops.put(self._neg_limit, -torque)
+        ops.put(self._base_step, movement * (self.max_base_speed * self.dt))
 
     def physics_step(self) -> None:
-        """One physics step: slide the bases, drive the arms, integrate with MuJoCo.
+        """One physics step: slide the bases, drive the arms, integrate with MuJoCo."""
+        self.step_lanes(self.lanes(ARRAYS), ARRAYS)
 
-        Written with preallocated buffers and no ``np.clip``: at N = 256 NumPy's per-call
-        overhead, not arithmetic, is the cost."""
-        dt, x, w = self.dt, self._buf_x, self._buf_w
-        self._theta0[:] = self.theta
-        np.add(self.base_x, self._base_step, out=x)
-        np.maximum(x, self.base_range[0], out=x)
-        np.minimum(x, self.base_range[1], out=x)
-        np.not_equal(x, self.base_x, out=self.base_moved)
-        self.base_x[:] = x
-        np.multiply(self.forward, x, out=self.mocap[..., 0])
+    # -- lanes (rallysim.core.lanes) -----------------------------------------------------------
+    _moving = ("base_x", "base_moved", "theta0", "theta", "omega", "torque", "mocap_x")
 
+    def lane_views(self) -> dict[str, np.ndarray]:
+        """Every (N, P) array a physics step reads or writes; the first ``_moving`` change."""
+        if self._lane_cache is None:
+            self._lane_cache = {
+                "base_x": self.base_x, "base_moved": self.base_moved, "theta0": self._theta0,
+                "theta": self.theta, "omega": self.omega, "torque": self.torque,
+                "mocap_x": self.mocap[..., 0], "base_step": self._base_step,
+                "target": self.target, "torque_limit": self.torque_limit,
+                "neg_limit": self._neg_limit, "fwd": self.forward}
+        return self._lane_cache
+
+    def lanes(self, ops: Ops) -> ArrayLanes | ScalarLanes:
+        views = self.lane_views()
+        return ScalarLanes.load(views) if ops.scalar else ArrayLanes(**views)
+
+    def store_lanes(self, lanes: ArrayLanes | ScalarLanes) -> None:
+        if lanes.scalar:
+            lanes.store(self.lane_views(), self._moving)
+
+    def step_lanes(self, b: Any, ops: Ops) -> None:
+        """One physics step on lanes ``b``: the base slides, the arm's drive torque is set, MuJoCo
+        integrates, then the arm's hard stops."""
+        b.theta0 = b.theta
+        x = ops.clip(b.base_x + b.base_step, self.base_range[0], self.base_range[1])
+        b.base_moved = x != b.base_x
+        b.base_x = x
+        b.mocap_x = b.fwd * x
         # drive: the rate that reaches the target within this step, capped, then torque-limited
-        np.subtract(self.target, self.theta, out=w)
-        w *= 1.0 / dt
-        np.maximum(w, -self.max_rate, out=w)
-        np.minimum(w, self.max_rate, out=w)
-        w -= self.omega
-        w *= self.inertia / dt
-        np.maximum(w, self._neg_limit, out=w)
-        np.minimum(w, self.torque_limit, out=self.torque)
-        mujoco.mj_step(self.model, self.data)
+        w = ops.clip((b.target - b.theta) * (1.0 / self.dt), -self.max_rate, self.max_rate)
+        w = (w - b.omega) * (self.inertia / self.dt)
+        b.torque = ops.clip(w, b.neg_limit, b.torque_limit)
+        self._mj_step(b)
         # Hard stops at +-85 degrees (the drive can overshoot its target when its torque is low).
-        if np.abs(self.theta, out=w).max() > self.limit:
-            over = w > self.limit
-            np.clip(self.theta, -self.limit, self.limit, out=self.theta)
-            self.omega[over] = 0.0
+        over = abs(b.theta) > self.limit
+        if ops.any(over):
+            b.theta = ops.clip(b.theta, -self.limit, self.limit)
+            b.omega = ops.where(over, 0.0, b.omega)
+            if b.scalar:
+                self.theta[0, 0], self.omega[0, 0] = b.theta, b.omega
+
+    def _mj_step(self, b: Any) -> None:
+        """MuJoCo's step. Array lanes are MjData's memory; scalar ones (one player) are written
+        to it before the step and read back after."""
+        if b.scalar:
+            self.torque[0, 0] = b.torque
+            self.mocap[0, 0, 0] = b.mocap_x
+        mujoco.mj_step(self.model, self.data)
+        if b.scalar:
+            b.theta = self.theta.item()
+            b.omega = self.omega.item()
 
     def _sync_mocap(self) -> None:
         self.mocap[..., 0] = self.forward * self.base_x
@@ -185,15 +226,17 @@ class SimpleBodies(MjDataViews):
 
     # -- the rulebook's view -------------------------------------------------------------------
     def to_face_frame(self, own: np.ndarray, out: np.ndarray) -> None:
-        """Own-frame points (N, P, 3) -> (normal, across, along the arm) about each face centre.
+        """Own-frame points (N, P, 3) -> each face's frame (``face_frame``), written to ``out``."""
+        q = self.face_frame(self.lanes(ARRAYS), (own[..., 0], own[..., 1], own[..., 2]), ARRAYS)
+        out[..., 0], out[..., 1], out[..., 2] = q
 
-        The arm turns about y only, so this is a planar rotation (cheaper than 3x3 matrices)."""
-        s, c = np.sin(self.theta), np.cos(self.theta)
-        dx = own[..., 0] - self.base_x - self.face_offset * s
-        dz = own[..., 2] - self.pivot_z - self.face_offset * c
-        out[..., 0] = dx * c - dz * s
-        out[..., 1] = own[..., 1]
-        out[..., 2] = dx * s + dz * c
+    def face_frame(self, b: Any, own: tuple, ops: Ops) -> tuple:
+        """Own-frame point lanes -> (normal, across, along the arm) about each face centre. The
+        arm turns about y only, so this is a planar rotation (cheaper than 3x3 matrices)."""
+        s, c = ops.sin(b.theta), ops.cos(b.theta)
+        dx = own[0] - b.base_x - self.face_offset * s
+        dz = own[2] - self.pivot_z - self.face_offset * c
+        return dx * c - dz * s, own[1], dx * s + dz * c
 
     def racket_velocity(self, env: np.ndarray, player: np.ndarray, t: np.ndarray) -> np.ndarray:
         """Face-centre velocity at fraction ``t`` of the last step: the arm turned at a constant

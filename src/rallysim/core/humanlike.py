@@ -32,7 +32,13 @@ import numpy as np
 
 from rallysim.assets import asset_path
 from rallysim.core.bodies import MjDataViews
+from rallysim.core.lanes import ARRAYS, ArrayLanes, Ops, ScalarLanes
 from rallysim.core.rules import FORWARD
+
+try:  # LAPACK's gesv as NumPy's own linalg.solve calls it, without that function's wrapper
+    from numpy.linalg import _umath_linalg
+except ImportError:  # pragma: no cover - a NumPy that moved it
+    _umath_linalg = None
 
 XML = "humanlike_player.xml"
 # Hinges in the model's order, which is also the action's order of target rotations (SPEC §10).
@@ -41,6 +47,8 @@ JOINTS = ("spine_z", "chest_z", "upper_arm_x", "upper_arm_y", "upper_arm_z", "lo
 GROUPS = ("spine", "chest", "upper_arm", "lower_arm", "hand")  # strength groups = observed bodies
 JOINT_GROUP = np.array([0, 1, 2, 2, 2, 3, 4, 4])
 N_JOINTS, N_GROUPS = len(JOINTS), len(GROUPS)
+GROUP_SIZE = np.bincount(JOINT_GROUP)  # joints per group; a group's joints are consecutive
+GROUP_START = np.concatenate([[0], np.cumsum(GROUP_SIZE)[:-1]])
 # Action layout: movement x, y; one target per joint; one strength per group.
 MOVE, TARGET, STRENGTH = slice(0, 2), slice(2, 2 + N_JOINTS), slice(2 + N_JOINTS, None)
 N_ACTIONS = 2 + N_JOINTS + N_GROUPS
@@ -87,7 +95,8 @@ class HumanLikeBodies(MjDataViews):
         self._hips_ids = _body_ids(m, n_envs, n_players, ("hips",))[..., 0]
 
         self.forward = np.broadcast_to(FORWARD[:n_players], shape).copy()
-        self._flip = np.stack([self.forward, self.forward, np.ones(shape)], axis=-1)
+        # own-frame factors of x, y, z: x and y change sign in player 1's frame
+        self.flip = np.stack([self.forward, self.forward, np.ones(shape)], axis=-1)
         self.base_moved = np.zeros(shape, dtype=bool)
         self.hips_velocity = np.zeros((*shape, 2))  # own frame, over the last physics step
         self.target = np.zeros((*shape, N_JOINTS))
@@ -97,14 +106,16 @@ class HumanLikeBodies(MjDataViews):
         self._hips_new = np.zeros((*shape, 2))
         self._face0 = np.zeros((*shape, 3))  # world face centre at the last step's start
         self._inertia = np.zeros((*shape, N_JOINTS, N_JOINTS))
-        self._eye = np.eye(N_JOINTS)
+        self._neg_eye = -np.eye(N_JOINTS)
+        self._hips_lo, self._hips_hi = self.hips_range[:, 0].copy(), self.hips_range[:, 1].copy()
         self._diag_i = np.arange(N_JOINTS)
         self._side = np.zeros((*shape, N_JOINTS), dtype=np.int8)  # servos saturated at +-limit
         self._dirty = True  # kinematics must be recomputed before they are read
         self._sync_mocap()
         self._sync()
 
-    _views = ("qpos", "qvel", "torque", "_bias", "_mocap", "_face_pos", "_face_mat", "base_x")
+    _views = ("qpos", "qvel", "torque", "_bias", "_mass", "_mocap", "_face_pos", "_face_mat",
+              "base_x")
 
     def _bind_views(self) -> None:
         """Views into MuJoCo's memory (players are env-major and contiguous in every array),
@@ -114,6 +125,7 @@ class HumanLikeBodies(MjDataViews):
         self.qvel = d.qvel.reshape((*shape, N_JOINTS))
         self.torque = d.ctrl.reshape((*shape, N_JOINTS))
         self._bias = d.qfrc_bias.reshape((*shape, N_JOINTS))
+        self._mass = d.M  # the sparse joint-space inertia
         self._mocap = d.mocap_pos.reshape((*shape, 3))
         self._face_pos = d.site_xpos.reshape((*shape, 3))  # world frame
         self._face_mat = d.site_xmat.reshape((*shape, 3, 3))
@@ -168,30 +180,30 @@ class HumanLikeBodies(MjDataViews):
     # -- the servo -----------------------------------------------------------------------------
     def _servo(self) -> None:
         """Write the servo torques for this step to MuJoCo's ctrl (see the module docstring)."""
-        M = np.take(self.data.M, self._m_index, out=self._inertia)
-        lim, dt = self.torque_limit, self.dt
+        M = np.take(self._mass, self._m_index, out=self._inertia)
+        lim, neg, dt = self.torque_limit, -self.torque_limit, self.dt
         e = self.target - self.qpos
+        size = np.abs(e)
         # Desired speed: reach the target this step if possible, else as fast as the rate cap
         # and the braking distance allow (stopping from v at deceleration a takes v^2 / 2a).
         diag = M[..., self._diag_i, self._diag_i]
-        speed = np.sqrt((2.0 * BRAKE_SHARE) * lim / diag * np.abs(e))
-        np.minimum(speed, np.abs(e) * (1.0 / dt), out=speed)
+        speed = np.sqrt((2.0 * BRAKE_SHARE) * lim / diag * size)
+        np.minimum(speed, size * (1.0 / dt), out=speed)
         np.minimum(speed, self._joint_max_rate, out=speed)
         acc = (np.copysign(speed, e) - self.qvel) * (1.0 / dt)  # desired accelerations
         tau = _matvec(M, acc) + self._bias
         # Saturated joints (+1 at +limit, -1 at -limit): those of the last step (a warm start:
         # the set rarely changes from one step to the next), and among the others those the
         # unconstrained torques would push past their limit.
-        side = np.where(self._side != 0, self._side,
-                        np.where(tau > lim, 1, np.where(tau < -lim, -1, 0))).astype(np.int8)
-        if side.any():
-            self._saturate(M, acc, tau, side)
+        side = np.where(self._side != 0, self._side, _beyond(tau, lim, neg))
+        if np.count_nonzero(side):
+            self._saturate(M, acc, tau, side, neg)
         self._side = side
-        np.maximum(tau, -lim, out=tau)
+        np.maximum(tau, neg, out=tau)
         np.minimum(tau, lim, out=self.torque)
 
-    def _saturate(self, M: np.ndarray, acc: np.ndarray, tau: np.ndarray, side: np.ndarray
-                  ) -> None:
+    def _saturate(self, M: np.ndarray, acc: np.ndarray, tau: np.ndarray, side: np.ndarray,
+                  neg: np.ndarray) -> None:
         """Torques within the limits that bring the accelerations closest to ``acc`` in the
         inertia metric (a box-constrained least squares, solved by an active set): free joints
         reach their desired acceleration; saturated ones push with +-limit and fall short.
@@ -199,30 +211,32 @@ class HumanLikeBodies(MjDataViews):
         Given the saturated set, the rows of M a + bias = tau have as unknowns the saturated
         joints' accelerations and the free joints' torques: one 8 x 8 linear solve per player
         and round. Rounds after the first revisit only the players whose set changed. Writes
-        ``tau`` and ``side`` (N, P, 8) in place."""
+        ``tau`` and ``side`` (N, P, 8) in place; ``neg`` is -limit."""
         flat = (-1, N_JOINTS)
         M, acc = M.reshape(-1, N_JOINTS, N_JOINTS), acc.reshape(flat)
         lim, bias = self.torque_limit.reshape(flat), self._bias.reshape(flat)
+        neg = neg.reshape(flat)
+        zero = lim == 0.0
         tau, side = tau.reshape(flat), side.reshape(flat)  # views: written through
-        todo = np.flatnonzero(side.any(axis=1))
-        every = slice(None) if len(todo) == len(acc) else todo  # a slice gathers nothing
+        arrays = (M, acc, lim, neg, zero, bias, side)
+        todo = np.flatnonzero(_as_rows(side) != 0)
         for _ in range(ACTIVE_SET_ROUNDS):
-            t, s = _active_set_round(M[every], acc[every], lim[every], bias[every],
-                                     side[every], self._eye)
-            tau[every] = t
-            changed = (s != side[every]).any(axis=1)
-            side[every] = s
+            every = len(todo) == len(acc)  # then the arrays themselves: nothing to gather
+            t, s = _active_set_round(*(arrays if every else [a[todo] for a in arrays]),
+                                     self._neg_eye)
+            changed = _as_rows(s) != _as_rows(side if every else side[todo])
+            rows = slice(None) if every else todo
+            tau[rows], side[rows] = t, s
             todo = todo[changed]
             if not len(todo):
                 break
-            every = todo
 
     def _joint_stops(self) -> None:
         """Hard stops at the joint limits (a joint past one is put back and stopped) and the
         speed ceiling."""
         q, w = self.qpos, self.qvel
         over = (q > self.hi) | (q < self.lo)
-        if over.any():
+        if np.count_nonzero(over):
             np.minimum(np.maximum(q, self.lo, out=q), self.hi, out=q)
             w[over] = 0.0
         np.maximum(w, -MAX_JOINT_SPEED, out=w)
@@ -231,16 +245,17 @@ class HumanLikeBodies(MjDataViews):
     def _move_hips(self) -> None:
         h = self._hips_new
         np.add(self.hips, self._hips_step, out=h)
-        np.clip(h, self.hips_range[:, 0], self.hips_range[:, 1], out=h)
+        np.maximum(h, self._hips_lo, out=h)  # np.clip's result, with less overhead per call
+        np.minimum(h, self._hips_hi, out=h)
         np.subtract(h, self.hips, out=self.hips_velocity)
         self.hips_velocity *= 1.0 / self.dt
-        np.any(self.hips_velocity != 0.0, axis=-1, out=self.base_moved)
+        # moved: either component nonzero, read as one complex number (no reduction call)
+        np.not_equal(self.hips_velocity.view(np.complex128)[..., 0], 0.0, out=self.base_moved)
         self.hips[:] = h
         self._sync_mocap()
 
     def _sync_mocap(self) -> None:
-        self._mocap[..., 0] = self.forward * self.hips[..., 0]
-        self._mocap[..., 1] = self.forward * self.hips[..., 1]
+        np.multiply(self.hips, self.forward[..., None], out=self._mocap[..., :2])
         self._mocap[..., 2] = self.hips_height
 
     def _sync(self) -> None:
@@ -266,16 +281,50 @@ class HumanLikeBodies(MjDataViews):
     def to_face_frame(self, own: np.ndarray, out: np.ndarray) -> None:
         """Own-frame points (N, P, 3) -> the face box's frame (across, normal, along the
         handle) about its centre: R^T (world point - centre), R the face site's rotation."""
+        q = self.face_frame(self.lanes(ARRAYS), (own[..., 0], own[..., 1], own[..., 2]), ARRAYS)
+        out[..., 0], out[..., 1], out[..., 2] = q
+
+    # -- lanes (rallysim.core.lanes) -----------------------------------------------------------
+    def lanes(self, ops: Ops) -> ArrayLanes | ScalarLanes:
+        """The rulebook's lanes: ``base_x``, ``base_moved``, ``fwd``, and the face site's world
+        position ``face`` (3 lanes) and rotation ``mat`` (9, row-major)."""
         self._sync()
-        rel = own * self._flip - self._face_pos
-        out[:] = (self._face_mat * rel[..., :, None]).sum(axis=-2)
+        if not ops.scalar:
+            return ArrayLanes(base_x=self.base_x, base_moved=self.base_moved, fwd=self.forward,
+                              face=tuple(self._face_pos[..., i] for i in range(3)),
+                              mat=tuple(self._face_mat[..., i, j] for i in range(3)
+                                        for j in range(3)))
+        b = ScalarLanes(fwd=self.forward.item())
+        self._read_lanes(b)
+        return b
+
+    def _read_lanes(self, b: ScalarLanes) -> None:
+        b.base_x, b.base_moved = self.base_x.item(), self.base_moved.item()
+        b.face, b.mat = self._face_pos.ravel().tolist(), self._face_mat.ravel().tolist()
+
+    def store_lanes(self, lanes: ArrayLanes | ScalarLanes) -> None:
+        """Nothing to store: ``step_lanes`` steps the arrays themselves."""
+
+    def step_lanes(self, b: ArrayLanes | ScalarLanes, ops: Ops) -> None:
+        """``physics_step`` (the servo's linear algebra needs arrays), then scalar lanes read
+        the new state."""
+        self.physics_step()
+        if b.scalar:
+            self._read_lanes(b)
+
+    def face_frame(self, b: ArrayLanes | ScalarLanes, own: tuple, ops: Ops) -> tuple:
+        """Own-frame point lanes -> the face box's frame (see ``to_face_frame``)."""
+        # own * (fwd, fwd, 1) is the world point; z is multiplied by 1.0 (exact) as before
+        rel = (own[0] * b.fwd - b.face[0], own[1] * b.fwd - b.face[1], own[2] - b.face[2])
+        m = b.mat
+        return tuple((m[j] * rel[0] + m[3 + j] * rel[1]) + m[6 + j] * rel[2] for j in range(3))
 
     def racket_velocity(self, env: np.ndarray, player: np.ndarray, t: np.ndarray) -> np.ndarray:
         """Own-frame face-centre velocity over the last physics step (its displacement / dt,
         the motion the swept hit test interpolated); the same at every fraction ``t``.
 
         Also recorded in ``hit_velocity`` (N, P, 3), since the rulebook asks for it on hits."""
-        v = (self._face_pos[env, player] - self._face0[env, player]) * self._flip[env, player]
+        v = (self._face_pos[env, player] - self._face0[env, player]) * self.flip[env, player]
         v *= 1.0 / self.dt
         self.hit_velocity[env, player] = v
         return v
@@ -299,7 +348,7 @@ class HumanLikeBodies(MjDataViews):
     def face_centre(self) -> np.ndarray:
         """(N, P, 3) own-frame centre of each racket face."""
         self._sync()
-        return self._face_pos * self._flip
+        return self._face_pos * self.flip
 
     def body_states(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Own-frame states of the 5 driven bodies (spine, chest, upper arm, lower arm, hand):
@@ -307,13 +356,13 @@ class HumanLikeBodies(MjDataViews):
         hips, orientation quaternion (w, x, y, z) with w >= 0; shapes (N, P, 5, 3 or 4)."""
         self._sync()
         d, ids = self.data, self._body_ids
-        flip = self._flip[..., None, :]
+        flip = self.flip[..., None, :]
         pos = d.xpos[ids]
         root_com = d.subtree_com[self._hips_ids][..., None, :]
         ang, lin = d.cvel[ids, :3], d.cvel[ids, 3:]
         # MuJoCo's cvel is the spatial velocity at the tree's centre of mass; the hips are
         # kinematic (invisible to MuJoCo's velocities), so their motion is added.
-        vel = (lin + np.cross(ang, pos - root_com)) * flip
+        vel = (lin + _cross(ang, pos - root_com)) * flip
         vel[..., :2] += self.hips_velocity[..., None, :]
         rel = pos * flip - self.hips_position()[..., None, :]
         return vel, ang * flip, rel, self._own_quat(d.xquat[ids])
@@ -321,41 +370,84 @@ class HumanLikeBodies(MjDataViews):
     def _own_quat(self, q: np.ndarray) -> np.ndarray:
         """World quaternions (N, P, B, 4) -> own frame; player 1's frame is the world turned
         180 degrees about z, i.e. q_own = (0, 0, 0, 1) * q."""
-        w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
-        turned = np.stack([-z, -y, x, w], axis=-1)
-        own = np.where((self.forward < 0)[..., None, None], turned, q)
+        own = q
+        if self.n_players == 2:  # (player 0's own frame is the world's)
+            w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
+            turned = np.stack([-z, -y, x, w], axis=-1)
+            own = np.where((self.forward < 0)[..., None, None], turned, q)
         return own * np.where(own[..., :1] < 0.0, -1.0, 1.0)
 
     def body_effort(self) -> np.ndarray:
         """(N, P, 5) magnitude of each body's joint torques in the last physics step, as a
         fraction of its group's maximum: |tau| / (max torque * sqrt(joints)), in [0, 1]."""
         frac = (self.torque / self._joint_max_torque) ** 2
-        out = np.zeros((self.n_envs, self.n_players, N_GROUPS))
-        for g in range(N_GROUPS):
-            cols = g == JOINT_GROUP
-            out[..., g] = np.sqrt(frac[..., cols].sum(axis=-1) / cols.sum())
-        return out
+        return np.sqrt(_group_sums(frac) / GROUP_SIZE)
 
 
-def _active_set_round(M: np.ndarray, acc: np.ndarray, lim: np.ndarray, bias: np.ndarray,
-                      side: np.ndarray, eye: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _group_sums(x: np.ndarray) -> np.ndarray:
+    """(..., 8) per-joint values summed per group (..., 5), in joint order as ``sum`` adds
+    them (a group's joints are consecutive): column by column rather than one reduction per
+    group."""
+    out = x[..., GROUP_START]
+    for groups, joints in _GROUP_MEMBERS:
+        out[..., groups] += x[..., joints]
+    return out
+
+
+# (groups with a k-th joint, those joints) for k = 1, 2, ...: _group_sums adds them in order
+_GROUP_MEMBERS = [(np.flatnonzero(k < GROUP_SIZE), GROUP_START[k < GROUP_SIZE] + k)
+                  for k in range(1, int(GROUP_SIZE.max()))]
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``np.cross`` of (..., 3) arrays, in its order (a1 b2 - a2 b1, ...), without its generic
+    axis handling (a dozen NumPy calls)."""
+    return a[..., _YZX] * b[..., _ZXY] - a[..., _ZXY] * b[..., _YZX]
+
+
+_YZX, _ZXY = np.array([1, 2, 0]), np.array([2, 0, 1])
+
+
+def _active_set_round(M: np.ndarray, acc: np.ndarray, lim: np.ndarray, neg: np.ndarray,
+                      zero: np.ndarray, bias: np.ndarray, side: np.ndarray, neg_eye: np.ndarray
+                      ) -> tuple[np.ndarray, np.ndarray]:
     """One active-set round for k players, arrays (k, 8) and M (k, 8, 8): the torques with the
     joints of nonzero ``side`` held at side * limit, and the set the optimality conditions ask
-    for next."""
+    for next. ``neg`` is -limit, ``zero`` limit == 0, ``neg_eye`` -I."""
     held = side != 0
     bound = side * lim
-    A = np.where(held[:, None, :], M, -eye)
+    # A is nonsingular: its determinant is +-det of the held joints' block of M, which is
+    # positive definite
+    A = np.where(held[:, None, :], M, neg_eye)
     r = bound - bias - _matvec(M, np.where(held, 0.0, acc))
-    u = np.linalg.solve(A, r[..., None])[..., 0]
+    u = _solve(A, r)
     tau = np.where(held, bound, u)
     # KKT: a free joint must stay within its limit; a held one must fall short of its desired
     # acceleration in the direction it pushes (else it is released), unless its limit is zero
     # (both bounds at once: it stays held).
-    keep = held & ((side * (u - acc) <= 0.0) | (lim == 0.0))
-    new = np.where(keep, side, 0).astype(np.int8)
-    new[~held & (tau > lim)] = 1
-    new[~held & (tau < -lim)] = -1
-    return tau, new
+    keep = held & ((side * (u - acc) <= 0.0) | zero)
+    return tau, np.where(held, np.where(keep, side, 0), _beyond(tau, lim, neg))
+
+
+def _beyond(tau: np.ndarray, lim: np.ndarray, neg: np.ndarray) -> np.ndarray:
+    """int8: +1 where ``tau`` > limit, -1 where it is below ``neg`` (-limit), else 0."""
+    return (tau > lim).view(np.int8) - (tau < neg).view(np.int8)
+
+
+def _as_rows(side: np.ndarray) -> np.ndarray:
+    """Each player's 8 int8 saturation flags read as one uint64, so that "any joint" and "any
+    change" are single comparisons instead of reductions along the joint axis."""
+    return side.view(np.uint64)[:, 0]
+
+
+def _solve(A: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """``np.linalg.solve(A, r[..., None])[..., 0]``: the same LAPACK gufunc, called without
+    that function's type checks and error-state context (several NumPy calls each). Those
+    only turn a singular system's NaN result (with NumPy's "invalid value" warning) into
+    ``LinAlgError``; ``_active_set_round``'s systems are never singular."""
+    if _umath_linalg is None:  # pragma: no cover
+        return np.linalg.solve(A, r[..., None])[..., 0]
+    return _umath_linalg.solve(A, r[..., None], signature="dd->d")[..., 0]
 
 
 def _matvec(M: np.ndarray, v: np.ndarray) -> np.ndarray:

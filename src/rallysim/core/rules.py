@@ -71,6 +71,27 @@ def segment_box_entry(
     return hit, t_enter
 
 
+# How far outside a box (per axis) a segment must stay for ``apart``: far above the rounding
+# error of the slab arithmetic on positions of metres, so that segment_box_entry misses it too.
+APART_MARGIN = 1e-6
+
+
+def grown(lo: np.ndarray, hi: np.ndarray) -> tuple[tuple, tuple]:
+    """Boxes' (lo, hi) (..., 3), as Python numbers grown by ``APART_MARGIN``, for ``apart``."""
+    return ((np.asarray(lo) - APART_MARGIN).tolist(), (np.asarray(hi) + APART_MARGIN).tolist())
+
+
+def apart(q0: tuple, q1: tuple, lo: list, hi: list) -> bool:
+    """Whether the segment q0 -> q1 of one game ((x, y, z) Python numbers) stays outside the
+    box ``grown(lo, hi)`` on one side of some axis, so that ``segment_box_entry`` finds no hit
+    (its entry fraction there is negative or above 1). A single game skips most physics steps'
+    box tests with it; a batch nearly always has a game near some box. (Written out for the
+    three axes, x and z first, which separate most often: this runs every physics step.)"""
+    (x0, y0, z0), (x1, y1, z1), (lx, ly, lz), (hx, hy, hz) = q0, q1, lo, hi
+    return ((x0 > hx and x1 > hx) or (x0 < lx and x1 < lx) or (z0 > hz and z1 > hz)
+            or (z0 < lz and z1 < lz) or (y0 > hy and y1 > hy) or (y0 < ly and y1 < ly))
+
+
 def net_box(court: Court, radius: float) -> tuple[np.ndarray, np.ndarray]:
     """The net as an axis-aligned box grown by the shuttle radius (world frame)."""
     lo = np.array([-court.net_half_thickness - radius, -court.net_half_span - radius, -BIG])

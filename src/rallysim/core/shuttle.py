@@ -7,23 +7,46 @@ arrays of shape (N, 3); the models own no state beyond what ``ShuttleState`` hol
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
+
+from rallysim.core.lanes import ARRAYS, Ops
 
 GRAVITY = 9.81
 RADIUS = 0.1  # the original's overlap sphere; all models judge hits, net and floor with it
 
 
-@dataclass
 class ShuttleState:
-    """Batched shuttle state. ``shot_speed``/``shot_time`` serve the paper's Algorithm 1."""
+    """Batched shuttle state. ``shot_speed``/``shot_time`` serve the paper's Algorithm 1.
 
-    pos: np.ndarray  # (N, 3)
-    vel: np.ndarray  # (N, 3)
-    shot_speed: np.ndarray  # (N,) speed at the last serve or hit
-    shot_time: np.ndarray  # (N,) seconds since the last serve or hit
+    Position and velocity (copied in) are stored component-major in ``motion`` (6, N): rows x,
+    y, z, vx, vy, vz, so that the rule code's lanes (``rallysim.core.lanes``) are contiguous
+    rows (NumPy takes a slower, general path on the columns of an (N, 3) array). ``pos`` and
+    ``vel`` are (N, 3) views of it."""
+
+    def __init__(self, pos: np.ndarray, vel: np.ndarray, shot_speed: np.ndarray,
+                 shot_time: np.ndarray) -> None:
+        self.motion = np.empty((6, len(pos)))
+        self.motion[:3] = np.asarray(pos, dtype=np.float64).T
+        self.motion[3:] = np.asarray(vel, dtype=np.float64).T
+        self.shot_speed = shot_speed  # (N,) speed at the last serve or hit
+        self.shot_time = shot_time  # (N,) seconds since the last serve or hit
+        self._lanes: SimpleNamespace | None = None  # made by lanes()
+
+    def __getstate__(self) -> dict[str, Any]:
+        return {**self.__dict__, "_lanes": None}  # a copy makes views of its own arrays
+
+    @property
+    def pos(self) -> np.ndarray:
+        """(N, 3) world positions (a view: writes move the shuttles)."""
+        return self.motion[:3].T
+
+    @property
+    def vel(self) -> np.ndarray:
+        """(N, 3) world velocities (a view)."""
+        return self.motion[3:].T
 
     @classmethod
     def zeros(cls, n: int) -> ShuttleState:
@@ -34,15 +57,36 @@ class ShuttleState:
         self.shot_speed[mask] = np.linalg.norm(self.vel[mask], axis=1)
         self.shot_time[mask] = 0.0
 
+    def vectors(self) -> tuple[np.ndarray, np.ndarray]:
+        """The position and velocity as vector lanes (``rallysim.core.lanes``): (3, N, 1) views
+        of ``motion``."""
+        return self.motion[:3, :, None], self.motion[3:, :, None]
+
+    def lanes(self) -> SimpleNamespace:
+        """Array lanes (``rallysim.core.lanes``) of this state for ``ShuttleModel.fly``: pos, vel,
+        shot_speed, shot_time (views, made once). A plain namespace: flight models change lanes
+        in place only, so no write-through is needed."""
+        if self._lanes is None:
+            pos, vel = self.vectors()
+            self._lanes = SimpleNamespace(pos=pos, vel=vel, shot_speed=self.shot_speed[:, None],
+                                          shot_time=self.shot_time[:, None])
+        return self._lanes
+
 
 class ShuttleModel:
-    """A flight model. Subclasses implement ``advance``."""
+    """A flight model. Subclasses implement ``fly``."""
 
     name: str = ""
     net_blocks: bool = False  # True: the net stops the shuttle; False: a net touch is only noted
     full_court: bool = False  # True: in/out on the full half court; False: the original trigger box
 
     def advance(self, s: ShuttleState, dt: float) -> None:
+        """Advance the shuttles of ``s`` by ``dt`` seconds, in place."""
+        self.fly(s.lanes(), dt, ARRAYS)
+
+    def fly(self, g: Any, dt: float, ops: Ops) -> None:
+        """``advance`` on lanes ``g`` (vectors ``pos`` and ``vel``, ``shot_speed``,
+        ``shot_time``), which it changes in place only (``ShuttleState.lanes``)."""
         raise NotImplementedError
 
     def terminal_speed(self) -> float:
@@ -59,11 +103,12 @@ class PaperShuttle(ShuttleModel):
         self.dt = dt
         self.factor = 1.0 - self.linear_damping * dt
 
-    def advance(self, s: ShuttleState, dt: float) -> None:
-        s.vel[:, 2] -= GRAVITY * dt
-        s.vel *= self.factor
-        s.pos += s.vel * dt
-        s.shot_time += dt
+    def fly(self, g: Any, dt: float, ops: Ops) -> None:
+        v = g.vel
+        v[2] -= GRAVITY * dt
+        ops.scale(v, self.factor)
+        ops.axpy(g.pos, v, dt)
+        g.shot_time += dt
 
     def terminal_speed(self) -> float:
         # fixed point of v = (v + g dt) f  ->  v = f g dt / (1 - f)
@@ -77,14 +122,14 @@ class PaperAlg1Shuttle(PaperShuttle):
     name = "paper-alg1"
     window = 0.6
 
-    def advance(self, s: ShuttleState, dt: float) -> None:
-        super().advance(s, dt)
-        active = s.shot_time < self.window
-        if active.any():
-            speed = np.linalg.norm(s.vel[active], axis=1)
-            target = s.shot_speed[active] * (1.0 - s.shot_time[active])
-            scale = np.divide(target, speed, out=np.zeros_like(speed), where=speed > 0)
-            s.vel[active] *= scale[:, None]
+    def fly(self, g: Any, dt: float, ops: Ops) -> None:
+        super().fly(g, dt, ops)
+        active = g.shot_time < self.window
+        if ops.any(active):
+            vx, vy, vz = g.vel
+            speed = ops.sqrt((vx * vx + vy * vy) + vz * vz)  # np.linalg.norm's sum
+            target = g.shot_speed * (1.0 - g.shot_time)
+            ops.scale(g.vel, ops.where(active, ops.divide(target, speed), 1.0))
 
 
 class AeroShuttle(ShuttleModel):
@@ -104,20 +149,27 @@ class AeroShuttle(ShuttleModel):
     def __init__(self, dt: float = 0.02) -> None:
         self.k = GRAVITY / self.v_terminal**2
 
-    def advance(self, s: ShuttleState, dt: float) -> None:
-        vmax = float(np.sqrt(np.max(np.einsum("ij,ij->i", s.vel, s.vel)))) if len(s.vel) else 0.0
+    def fly(self, g: Any, dt: float, ops: Ops) -> None:
+        vmax = float(ops.sqrt(ops.largest(_speed_squared(g.vel))))
         n = max(1, math.ceil(self.k * vmax * dt / self.max_decay_per_substep))
         h = dt / n
+        v = g.vel
         for _ in range(n):
-            s.vel[:, 2] -= 0.5 * GRAVITY * h
-            speed = np.sqrt(np.einsum("ij,ij->i", s.vel, s.vel))
-            s.vel /= (1.0 + h * self.k * speed)[:, None]
-            s.vel[:, 2] -= 0.5 * GRAVITY * h
-            s.pos += s.vel * h
-        s.shot_time += dt
+            v[2] -= 0.5 * GRAVITY * h
+            ops.shrink(v, 1.0 + h * self.k * ops.sqrt(_speed_squared(v)))
+            v[2] -= 0.5 * GRAVITY * h
+            ops.axpy(g.pos, v, h)
+        g.shot_time += dt
 
     def terminal_speed(self) -> float:
         return self.v_terminal
+
+
+def _speed_squared(v: Any) -> Any:
+    """|v|^2 of a vector lane, summed in the order of ``np.einsum("ij,ij->i", v, v)`` (x, z,
+    then y), which the recorded episodes were computed with."""
+    vx, vy, vz = v
+    return (vx * vx + vz * vz) + vy * vy
 
 
 SHUTTLE_MODELS: dict[str, type[ShuttleModel]] = {

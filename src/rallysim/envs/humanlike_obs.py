@@ -26,7 +26,7 @@ import numpy as np
 
 from rallysim.core.game import Game
 from rallysim.core.humanlike import HumanLikeBodies
-from rallysim.envs.simple_obs import SHUTTLE_SPEED_SCALE, normalise_position
+from rallysim.envs.simple_obs import POSITION_CENTRE, POSITION_SCALE, SHUTTLE_SPEED_SCALE
 
 N_BODIES = 5
 BODY_OBS_SIZE = 14
@@ -47,15 +47,18 @@ def player_observations(game: Game) -> np.ndarray:
     out = np.empty((n, p, PLAYER_OBS_SIZE))
     body = out[..., :N_BODIES * BODY_OBS_SIZE].reshape(n, p, N_BODIES, BODY_OBS_SIZE)
     vel, ang, rel, quat = b.body_states()
-    body[..., 0:3] = vel / BODY_SPEED_SCALE
-    body[..., 3:6] = ang / BODY_RATE_SCALE
-    body[..., 6:9] = rel / BODY_OFFSET_SCALE
+    np.divide(vel, BODY_SPEED_SCALE, out=body[..., 0:3])
+    np.divide(ang, BODY_RATE_SCALE, out=body[..., 3:6])
+    np.divide(rel, BODY_OFFSET_SCALE, out=body[..., 6:9])
     body[..., 9:13] = quat
-    body[..., 13] = 2.0 * b.body_effort() - 1.0
-    fwd = b.forward  # x and y change sign in player 1's frame, z does not
-    flip = np.stack([fwd, fwd, np.ones_like(fwd)], axis=-1)
-    out[..., 70:73] = normalise_position(game.shuttle.pos[:, None, :] * flip)
-    out[..., 73:76] = game.shuttle.vel[:, None, :] * flip / SHUTTLE_SPEED_SCALE
-    out[..., HIPS] = normalise_position(b.hips_position())
-    out[..., RACKET] = normalise_position(b.face_centre())
+    np.subtract(2.0 * b.body_effort(), 1.0, out=body[..., 13])
+    flip = b.flip  # x and y change sign in player 1's frame, z does not
+    np.multiply(game.shuttle.pos[:, None, :], flip, out=out[..., 70:73])
+    np.multiply(game.shuttle.vel[:, None, :], flip, out=out[..., 73:76])
+    out[..., 73:76] /= SHUTTLE_SPEED_SCALE
+    out[..., HIPS] = b.hips_position()
+    out[..., RACKET] = b.face_centre()
+    for positions in (out[..., 70:73], out[..., HIPS], out[..., RACKET]):
+        positions -= POSITION_CENTRE  # normalise_position, in place
+        positions /= POSITION_SCALE
     return out

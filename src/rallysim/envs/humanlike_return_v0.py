@@ -80,6 +80,7 @@ from gymnasium import spaces
 from rallysim.assets import asset_path
 from rallysim.core.game import PHYSICS_DT, PHYSICS_STEPS_PER_DECISION, Game
 from rallysim.core.humanlike import N_ACTIONS, HumanLikeBodies, humanlike_geometry
+from rallysim.core.lanes import column
 from rallysim.core.shuttle import ShuttleState, make_shuttle_model
 from rallysim.envs.humanlike_obs import HIPS, PLAYER_OBS_SIZE, SHUTTLE, player_observations
 from rallysim.envs.rendering import RENDER_MODES, EnvView
@@ -176,10 +177,40 @@ class HumanLikeReturnTask:
         return np.clip(obs, -1.0, 1.0).astype(np.float32)
 
     def step(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
-        """Advance all N games by one decision with validated, clipped ``actions`` (N, 15)."""
-        ev = self.game.step(actions[:, None, :])
+        """Advance all N games by one decision with validated, clipped ``actions`` (N, 15):
+        rewards, terminated, truncated and info, as (N,) (or (N, 3)) arrays."""
+        reward, terminated, truncated, values = self.outcome(actions)
+        info = {key: column(value, self.n) for key, value in values.items()}
+        # Gymnasium's vector convention: "_key" marks the environments where "key" applies.
+        for key in HIT_KEYS:
+            info["_" + key] = info["hit"].copy()
+        info["_landing_point"] = info["landed"].copy()
+        return (column(reward, self.n), column(terminated, self.n), column(truncated, self.n),
+                info)
+
+    def outcome(self, actions: np.ndarray) -> tuple[Any, Any, Any, dict[str, Any]]:
+        """``step``'s values as lanes of ``game.ops`` (rallysim.core.lanes: Python values for
+        one environment where they are numbers), not yet copied into arrays."""
+        game, ops = self.game, self.game.ops
+        read = ops.read
+        ev = game.step(actions[:, None, :])
         self.elapsed += 1
-        hit = ev.hit[:, 0].copy()
+        hit, landed = read(ev.hit[:, 0]), read(ev.landed)
+        if ops.any(hit):
+            reward, values = self._hit_values(ev.hit[:, 0])
+        else:  # rewards and hit values only come with a hit
+            reward = 0.0
+            values = {"racket_velocity": np.full((self.n, 3), np.nan), "velocity_error": np.nan,
+                      "angle_error": np.nan, "speed_error": np.nan}
+        landing = (np.where(ev.landed[:, None], ev.land_point, np.nan) if ops.any(landed)
+                   else np.full((self.n, 3), np.nan))
+        truncated = ops.logical_not(landed) & (read(self.elapsed) >= self.max_decisions)
+        return reward, landed, truncated, {
+            "hit": hit, **values, "net_touch": read(ev.net_touch), "landed": landed,
+            "landing_point": landing, "target_velocity": self.goal}
+
+    def _hit_values(self, hit: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+        """Rewards and hit values (NaN without a hit) of (N,) ``hit``."""
         v = np.where(hit[:, None], self.bodies.hit_velocity[:, 0], np.nan)
         error = np.linalg.norm(v - self.goal, axis=1)
         reward = np.where(hit, 0.5 * (R_HIT + np.exp(-R_VELOCITY_RATE * np.nan_to_num(error))),
@@ -189,24 +220,8 @@ class HumanLikeReturnTask:
             cos = np.einsum("ij,ij->i", v, self.goal) / (speed * goal_speed)
             angle = np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
             speed_error = (speed - goal_speed) / goal_speed
-        terminated = ev.landed.copy()
-        truncated = ~terminated & (self.elapsed >= self.max_decisions)
-        info = {
-            "hit": hit,
-            "racket_velocity": v,
-            "velocity_error": error,
-            "angle_error": angle,
-            "speed_error": speed_error,
-            "net_touch": ev.net_touch.copy(),
-            "landed": ev.landed.copy(),
-            "landing_point": np.where(ev.landed[:, None], ev.land_point, np.nan),
-            "target_velocity": self.goal.copy(),
-        }
-        # Gymnasium's vector convention: "_key" marks the environments where "key" applies.
-        for key in HIT_KEYS:
-            info["_" + key] = hit.copy()
-        info["_landing_point"] = info["landed"].copy()
-        return reward, terminated, truncated, info
+        return reward, {"racket_velocity": v, "velocity_error": error, "angle_error": angle,
+                        "speed_error": speed_error}
 
 
 def _spaces() -> tuple[spaces.Box, spaces.Box]:

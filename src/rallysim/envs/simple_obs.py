@@ -43,21 +43,32 @@ def normalise_depth(depth: np.ndarray) -> np.ndarray:
     return (np.asarray(depth) - 0.5 * (lo + hi)) / (0.5 * (hi - lo))
 
 
+# Each observed value's affine map, (raw - centre) / scale. Subtracting 0 and dividing by 1 are
+# exact, so one map over all 16 values gives the numbers of scaling each kind on its own.
+PLAYER_OBS_CENTRE = (*POSITION_CENTRE.tolist(), 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+                     *POSITION_CENTRE.tolist(), 0.0, 0.0, 0.0)
+PLAYER_OBS_SCALE = (*POSITION_SCALE.tolist(), 1.0, 1.0, 1.0, 1.0, *(FACE_SPEED_SCALE,) * 3,
+                    *POSITION_SCALE.tolist(), *(SHUTTLE_SPEED_SCALE,) * 3)
+
+
 def player_observations(game: Game) -> np.ndarray:
     """(N, P, 16) float64 observations of every player, own frame, scaled (not yet clipped)."""
-    b, sh = game.bodies, game.shuttle
-    n, p = game.n_envs, game.n_players
-    out = np.empty((n, p, PLAYER_OBS_SIZE))
-    base = np.zeros((n, p, 3))
-    base[..., 0] = b.base_x
-    base[..., 2] = b.base_z
-    out[..., 0:3] = normalise_position(base)
-    out[..., 3:7] = b.arm_quaternion()
-    out[..., 7:10] = b.face_velocity() / FACE_SPEED_SCALE
-    fwd = b.forward[..., None]
-    flip = np.array([1.0, 1.0, 0.0])  # x and y change sign in player 1's frame, z does not
-    own_pos = sh.pos[:, None, :] * (1.0 - flip + flip * fwd)
-    own_vel = sh.vel[:, None, :] * (1.0 - flip + flip * fwd)
-    out[..., 10:13] = normalise_position(own_pos)
-    out[..., 13:16] = own_vel / SHUTTLE_SPEED_SCALE
-    return out
+    return game.ops.scaled(raw_observation_lanes(game), (game.n_envs, game.n_players),
+                           PLAYER_OBS_CENTRE, PLAYER_OBS_SCALE)
+
+
+def raw_observation_lanes(game: Game) -> list:
+    """The 16 observed values of every player before their affine maps (``PLAYER_OBS_CENTRE``,
+    ``PLAYER_OBS_SCALE``), as lanes of ``game.ops`` (rallysim.core.lanes): one Python number
+    each for one game of one player, else arrays broadcastable to (N, P)."""
+    b, ops, vectors = game.bodies, game.ops, game.vector_views()
+    read = ops.read
+    theta, omega, fwd = read(b.theta), read(b.omega), read(game.lane_views()["fwd"])
+    (px, py, pz), (vx, vy, vz) = ops.vector(vectors["pos"]), ops.vector(vectors["vel"])
+    s, c = ops.sin(theta), ops.cos(theta)
+    half = 0.5 * theta
+    return [read(b.base_x), 0.0, b.base_z,
+            ops.cos(half), 0.0, ops.sin(half), 0.0,  # the arm's quaternion (a turn about y)
+            b.face_offset * omega * c, 0.0, -b.face_offset * omega * s,  # face centre velocity
+            # the shuttle: the own frame turns x and y (fwd = -1 for player 1), not z
+            fwd * px, fwd * py, pz, fwd * vx, fwd * vy, vz]

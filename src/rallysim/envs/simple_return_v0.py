@@ -68,18 +68,23 @@ from gymnasium import spaces
 
 from rallysim.assets import load_shot_bank
 from rallysim.core.game import Game
+from rallysim.core.lanes import column
 from rallysim.envs.rendering import RENDER_MODES, EnvView
 from rallysim.envs.simple_obs import (
+    PLAYER_OBS_CENTRE,
+    PLAYER_OBS_SCALE,
     PLAYER_OBS_SIZE,
     TARGET_DEPTH_RANGE,
-    normalise_depth,
-    player_observations,
+    raw_observation_lanes,
 )
 from rallysim.envs.task_env import TaskEnv, box_spaces
 from rallysim.envs.validation import positive_int, read_options, real_array
 from rallysim.envs.vector_base import NEXT_STEP, TaskVectorEnv
 
 OBS_SIZE = PLAYER_OBS_SIZE + 1
+# the observation's affine maps: the player's, then normalise_depth's for the goal
+OBS_CENTRE = (*PLAYER_OBS_CENTRE, 0.5 * sum(TARGET_DEPTH_RANGE))
+OBS_SCALE = (*PLAYER_OBS_SCALE, 0.5 * (TARGET_DEPTH_RANGE[1] - TARGET_DEPTH_RANGE[0]))
 ACTION_SIZE = 3
 MAX_DECISIONS = 1000
 R_HIT = 1.0
@@ -161,41 +166,49 @@ class ReturnTask:
             self.game.launch(envs[take], self._bank[rows, :3], self._bank[rows, 3:])
 
     def observe(self) -> np.ndarray:
-        obs = np.empty((self.n, OBS_SIZE))
-        obs[:, :PLAYER_OBS_SIZE] = player_observations(self.game)[:, 0]
-        obs[:, PLAYER_OBS_SIZE] = normalise_depth(self.goal)
-        return np.clip(obs, -1.0, 1.0).astype(np.float32)
+        game = self.game
+        lanes = [*raw_observation_lanes(game), game.ops.read(self.goal[:, None])]
+        return game.ops.observations(lanes, (self.n, 1), OBS_CENTRE, OBS_SCALE)[:, 0]
 
     def step(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
-        """Advance all N games by one decision with validated, clipped ``actions`` (N, 3)."""
-        game = self.game
-        ev = game.step(actions[:, None, :])
-        self.elapsed += 1
-        reward = SHAPING_GOOD * ev.approach_good[:, 0] + SHAPING_BAD * ev.approach_bad[:, 0]
-        reward = reward + R_HIT * ev.hit[:, 0]
-        depth = ev.land_point[:, 0]  # player 0's own frame is the world frame
-        error = np.where(ev.landed, np.abs(depth - self.goal), np.nan)
-        scored = (ev.landed & game.has_hit[:, 0] & ~game.net_touched & (ev.land_side == 1)
-                  & ev.land_in)
-        reward = reward + np.where(scored, np.exp(-R_DIST_RATE * np.nan_to_num(error)), 0.0)
-        terminated = ev.landed.copy()
-        truncated = ~terminated & (self.elapsed >= self.max_decisions)
-        info = {
-            "hit": ev.hit[:, 0].copy(),
-            "racket_speed": ev.hit_speed[:, 0].copy(),
-            "net_touch": ev.net_touch.copy(),
-            "landed": ev.landed.copy(),
-            "landing_point": ev.land_point.copy(),
-            "landing_depth": np.where(ev.landed, depth, np.nan),
-            "landing_error": error,
-            "landed_in": (ev.landed & (ev.land_side == 1) & ev.land_in),
-            "target_depth": self.goal.copy(),
-        }
+        """Advance all N games by one decision with validated, clipped ``actions`` (N, 3):
+        rewards, terminated, truncated and info, as (N,) arrays."""
+        reward, terminated, truncated, values = self.outcome(actions)
+        info = {key: column(value, self.n) for key, value in values.items()}
         # Gymnasium's vector convention: "_key" marks the environments where "key" applies.
         info["_racket_speed"] = info["hit"].copy()
         for key in LANDING_KEYS:
             info["_" + key] = info["landed"].copy()
-        return reward, terminated, truncated, info
+        return (column(reward, self.n), column(terminated, self.n), column(truncated, self.n),
+                info)
+
+    def outcome(self, actions: np.ndarray) -> tuple[Any, Any, Any, dict[str, Any]]:
+        """``step``'s values as lanes of ``game.ops`` (rallysim.core.lanes: Python values for
+        one environment), not yet copied into arrays."""
+        game, ops = self.game, self.game.ops
+        read, read0 = ops.read, ops.read0
+        ev = game.step(actions[:, None, :])
+        self.elapsed += 1
+        hit, landed, goal = read0(ev.hit), read(ev.landed), read(self.goal)
+        reward = SHAPING_GOOD * read0(ev.approach_good) + SHAPING_BAD * read0(ev.approach_bad)
+        reward = reward + R_HIT * hit
+        depth = error = np.nan
+        landed_in = False
+        if ops.any(landed):
+            land_x = read(ev.land_point[:, 0])  # player 0's own frame is the world frame
+            depth = ops.where(landed, land_x, np.nan)
+            error = ops.where(landed, abs(land_x - goal), np.nan)
+            landed_in = landed & (read(ev.land_side) == 1) & read(ev.land_in)
+            scored = landed_in & read0(game.has_hit) & ops.logical_not(read(game.net_touched))
+            closeness = ops.exp(-R_DIST_RATE * ops.where(landed, error, 0.0))
+            reward = reward + ops.where(scored, closeness, 0.0)
+        # (without a landing there is nothing to score: adding 0.0 would not change the
+        # reward, which never is -0.0)
+        truncated = ops.logical_not(landed) & (read(self.elapsed) >= self.max_decisions)
+        info = {"hit": hit, "racket_speed": read0(ev.hit_speed), "net_touch": read(ev.net_touch),
+                "landed": landed, "landing_point": ev.land_point, "landing_depth": depth,
+                "landing_error": error, "landed_in": landed_in, "target_depth": goal}
+        return reward, landed, truncated, info
 
 
 def _spaces() -> tuple[spaces.Box, spaces.Box]:

@@ -1,8 +1,10 @@
 """The single-environment view of a one-player task, written once for every player model.
 
 A task object (``ReturnTask``, ``HumanLikeReturnTask``) holds N = 1 game and answers
-``reset(units, options)``, ``step(actions) -> (reward, terminated, truncated, info arrays)``,
-``observe()`` and ``goal``; this class adds Gymnasium's single-env conventions on top.
+``reset(units, options)``, ``outcome(actions) -> (reward, terminated, truncated, info values)``
+(the vector envs' ``step`` before its values become arrays: for one game, Python numbers
+where they are numbers), ``observe()`` and ``goal``; this class adds Gymnasium's single-env
+conventions on top.
 """
 
 from __future__ import annotations
@@ -23,8 +25,11 @@ def box_spaces(obs_size: int, action_size: int) -> tuple[spaces.Box, spaces.Box]
             spaces.Box(-1.0, 1.0, (action_size,), np.float32))
 
 
-def _scalar(v: np.ndarray) -> Any:
-    return v.item() if np.ndim(v) == 0 else np.copy(v)
+def _first(v: Any) -> Any:
+    """Environment 0's value of a lane or array: a Python scalar, or a copy of its row."""
+    if not isinstance(v, np.ndarray):
+        return v
+    return v.item(0) if v.ndim == 1 else v[0].copy()
 
 
 class TaskEnv(gym.Env):
@@ -58,7 +63,7 @@ class TaskEnv(gym.Env):
         self._view.new_episode()
         if self.render_mode == "human":
             self.render()
-        return self.task.observe()[0], {self.goal_key: _scalar(self.task.goal[0])}
+        return self.task.observe()[0], {self.goal_key: _first(self.task.goal)}
 
     def render(self) -> np.ndarray | None:
         return self._frame(self._view, 0)
@@ -70,15 +75,21 @@ class TaskEnv(gym.Env):
         if self._done:
             raise RuntimeError("the episode has ended (or never began): call reset() first")
         a = validate_actions(action, self.action_space.shape)
-        reward, term, trunc, info = self.task.step(a[None, :])
-        self._done = bool(term[0] or trunc[0])
+        # the task's values as lanes: Python numbers for its one game (rallysim.core.lanes)
+        reward, term, trunc, values = self.task.outcome(a[None, :])
+        terminated, truncated = bool(_first(term)), bool(_first(trunc))
+        self._done = terminated or truncated
         if self.render_mode == "human":
             self.render()
-        # Event values appear only when their event happened (Gymnasium's single-env habit).
-        keep = {"hit", "net_touch", "landed", self.goal_key}
-        if info["hit"][0]:
-            keep |= set(self.hit_keys)
-        if info["landed"][0]:
-            keep |= set(self.landing_keys)
-        return (self.task.observe()[0], float(reward[0]), bool(term[0]), bool(trunc[0]),
-                {k: _scalar(v[0]) for k, v in info.items() if k in keep})
+        return (self.task.observe()[0], float(_first(reward)), terminated, truncated,
+                self._info(values))
+
+    def _info(self, values: dict) -> dict:
+        """The info of the task's values. Event values appear only when their event happened
+        (Gymnasium's single-env habit)."""
+        info = {k: _first(values[k]) for k in ("hit", "net_touch", "landed", self.goal_key)}
+        for happened, keys in ((info["hit"], self.hit_keys),
+                               (info["landed"], self.landing_keys)):
+            if happened:
+                info.update((k, _first(values[k])) for k in keys)
+        return info
