@@ -1,228 +1,265 @@
-"""CleanRL-style single-file PPO (continuous actions) on RallySim/SimpleReturn-v0.
+"""Single-file PPO (continuous actions) on RallySim/SimpleReturn-v0, in CleanRL's style.
 
-    python examples/cleanrl_ppo.py               # 1M steps, about a minute on two cores
-    python examples/cleanrl_ppo.py --smoke       # a few thousand steps (CI)
+    python examples/cleanrl_ppo.py               # about 1M steps, under two minutes on two cores
+    python examples/cleanrl_ppo.py --smoke       # 131,072 steps: a quick check that it learns
 
-Everything is in this file, in the style of CleanRL's ``ppo_continuous_action.py``: a vector
-env, an actor-critic MLP, GAE, the clipped surrogate objective. The settings are RallySim's
-own for this task (as ``examples/sb3_ppo.py``): 64 envs x 64 steps per update, 4 minibatches
-of 1024, 10 epochs, a constant lr 3e-4, log-std started at -0.5.
+Written for this project in the style of CleanRL's single-file scripts: the whole algorithm in
+one file, every setting on the command line and the training loop read top to bottom. It is
+not a copy of CleanRL's ``ppo_continuous_action.py``; what follows is this file's own layout:
 
-Written for Gymnasium 1.x (CleanRL's own scripts target Gymnasium 0.29 and break on 1.x, e.g.
-``TransformObservation``'s new signature); no wrappers are needed here because RallySim's
-observations are already scaled to [-1, 1] and its env clips actions to [-1, 1] itself.
+- ``ActorCritic``: separate tanh MLPs for the action mean and the value (``mlp()``), and a
+  state-independent log standard deviation started at -0.5 (std 0.61, RallySim's setting);
+- ``collect()``: one rollout of ``--num-steps`` steps of every environment; an episode cut by
+  the time limit gets the discounted value of its last observation added to its last reward;
+- ``advantages()``: generalised advantage estimation (GAE), one backward pass over time;
+- ``update()``: ``--epochs`` passes over the rollout in shuffled minibatches, the clipped
+  surrogate objective plus a value regression, gradients clipped to ``--max-grad-norm``.
 
-The env is ``gym.make_vec`` of the registered id with its *vector entry point*: one batched
-MuJoCo model steps all environments in one call. ``autoreset_mode="same_step"`` gives the
-semantics this loop assumes: the observation returned with ``done`` is already the next
-episode's first, and the last one is in ``info["final_obs"]`` (used to bootstrap the value of
-an episode cut by the time limit).
+The settings are RallySim's for this task (as ``examples/sb3_ppo.py``): 64 envs x 64 steps
+per update, 4 minibatches of 1024, 10 epochs, lr 3e-4 (constant; ``--lr-decay`` lowers it in
+proportion to the steps left), gamma 0.99, GAE lambda 0.95, clip 0.2.
 
-Prints the speed and a ``result:`` line: the deterministic policy's mean reward, hit rate,
-share landed in court and median landing error over seeded evaluation episodes.
+The env is Gymnasium 1.x's vector API over the registered id, with the id's *vector entry
+point* (one batched MuJoCo model steps all environments in one call) and
+``autoreset_mode="same_step"``: the observation returned with an episode's end is already the
+next episode's first, the last one is ``info["final_obs"]``. No wrappers: RallySim's
+observations are already scaled to [-1, 1], its rewards are O(1), and it clips actions to
+[-1, 1] itself.
+
+Training runs in whole rollouts, so ``--steps`` is rounded up to a multiple of
+num-envs x num-steps (the script says so). Seeded: the same ``--seed`` on the same machine
+gives the same numbers. Prints the speed and a ``result:`` line: the deterministic policy's
+mean reward, hit rate, share landed in court and median landing error over seeded evaluation
+episodes.
 """
 
 from __future__ import annotations
 
 import argparse
+import itertools
+import math
 import time
+from dataclasses import dataclass
 
 import gymnasium as gym
 import numpy as np
 import torch
 from torch import nn
-from torch.distributions.normal import Normal
 
 import rallysim  # noqa: F401  (registers RallySim/SimpleReturn-v0)
 from rallysim.eval.low_eval import evaluate_return
 
 ENV_ID = "RallySim/SimpleReturn-v0"
+DEFAULT_STEPS, SMOKE_STEPS = 1_000_000, 131_072
+
+
+def positive(kind):
+    """An argparse type: ``kind`` (int or float) and > 0."""
+    def parse(text: str):
+        value = kind(text)
+        if not value > 0:
+            what = "integer" if kind is int else "number"
+            raise argparse.ArgumentTypeError(f"must be a positive {what}, got {text}")
+        return value
+    parse.__name__ = f"positive {kind.__name__}"
+    return parse
 
 
 def parse_args() -> argparse.Namespace:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--steps", type=int, help="total env steps (default 1,000,000)")
+    p.add_argument("--steps", type=positive(int),
+                   help=f"env steps to train (default {DEFAULT_STEPS:,}; rounded up to whole "
+                        "rollouts)")
     p.add_argument("--smoke", action="store_true",
-                   help="a quick check: 8,192 steps (unless --steps), 64 eval episodes")
+                   help=f"a quick check: {SMOKE_STEPS:,} steps (unless --steps), 64 "
+                        "evaluation episodes")
     p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--num-envs", type=int, default=64)
-    p.add_argument("--num-steps", type=int, default=64, help="steps per env per rollout")
-    p.add_argument("--num-minibatches", type=int, default=4)
-    p.add_argument("--update-epochs", type=int, default=10)
-    p.add_argument("--learning-rate", type=float, default=3e-4)
-    p.add_argument("--anneal-lr", action=argparse.BooleanOptionalAction, default=False,
-                   help="decay the learning rate linearly to 0 (CleanRL's default; over 1M "
-                        "steps it ended lower here)")
+    p.add_argument("--num-envs", type=positive(int), default=64)
+    p.add_argument("--num-steps", type=positive(int), default=64,
+                   help="steps of each env per rollout")
+    p.add_argument("--minibatches", type=positive(int), default=4)
+    p.add_argument("--epochs", type=positive(int), default=10)
+    p.add_argument("--lr", type=positive(float), default=3e-4)
+    p.add_argument("--lr-decay", action="store_true",
+                   help="scale the lr by the share of training steps still to run")
     p.add_argument("--gamma", type=float, default=0.99)
     p.add_argument("--gae-lambda", type=float, default=0.95)
-    p.add_argument("--clip-coef", type=float, default=0.2)
+    p.add_argument("--clip", type=float, default=0.2, help="PPO's ratio clip range")
     p.add_argument("--ent-coef", type=float, default=0.0)
     p.add_argument("--vf-coef", type=float, default=0.5)
     p.add_argument("--max-grad-norm", type=float, default=0.5)
     p.add_argument("--log-std-init", type=float, default=-0.5)
+    p.add_argument("--hidden", type=positive(int), nargs="+", default=[64, 64],
+                   help="hidden layer sizes of both MLPs")
     args = p.parse_args()
-    args.total_timesteps = args.steps or (8192 if args.smoke else 1_000_000)
+    rollout = args.num_envs * args.num_steps
+    if rollout % args.minibatches:
+        p.error(f"--minibatches {args.minibatches} does not divide a rollout of "
+                f"{args.num_envs} x {args.num_steps} = {rollout} steps")
+    asked = args.steps if args.steps is not None else (
+        SMOKE_STEPS if args.smoke else DEFAULT_STEPS)
+    args.updates = math.ceil(asked / rollout)
+    args.total = args.updates * rollout
+    rounded = "" if args.total == asked else f" ({asked:,} rounded up to whole rollouts)"
+    print(f"training {args.total:,} env steps{rounded}: {args.updates} updates of "
+          f"{args.num_envs} envs x {args.num_steps} steps", flush=True)
     args.eval_episodes = 64 if args.smoke else 500
-    args.batch_size = args.num_envs * args.num_steps
-    args.minibatch_size = args.batch_size // args.num_minibatches
-    args.num_iterations = max(1, args.total_timesteps // args.batch_size)
     return args
 
 
-def layer_init(layer: nn.Linear, std: float = np.sqrt(2), bias: float = 0.0) -> nn.Linear:
-    nn.init.orthogonal_(layer.weight, std)
-    nn.init.constant_(layer.bias, bias)
-    return layer
+def mlp(sizes: list[int], out_gain: float) -> nn.Sequential:
+    """A tanh MLP through ``sizes``. Weights orthogonal (gain sqrt 2 before a tanh,
+    ``out_gain`` on the output layer), biases zero."""
+    layers: list[nn.Module] = []
+    for fan_in, fan_out in itertools.pairwise(sizes):
+        linear = nn.Linear(fan_in, fan_out)
+        nn.init.zeros_(linear.bias)
+        layers += [linear, nn.Tanh()]
+    layers.pop()  # no tanh after the output layer
+    for linear in layers[::2]:
+        gain = out_gain if linear is layers[-1] else math.sqrt(2.0)
+        nn.init.orthogonal_(linear.weight, gain=gain)
+    return nn.Sequential(*layers)
 
 
-class Agent(nn.Module):
-    def __init__(self, obs_size: int, act_size: int, log_std_init: float) -> None:
+class ActorCritic(nn.Module):
+    """A Gaussian policy N(mean(obs), exp(log_std)) and a value function, no shared layers."""
+
+    def __init__(self, obs_dim: int, act_dim: int, hidden: list[int],
+                 log_std_init: float) -> None:
         super().__init__()
-        self.critic = nn.Sequential(
-            layer_init(nn.Linear(obs_size, 64)), nn.Tanh(),
-            layer_init(nn.Linear(64, 64)), nn.Tanh(),
-            layer_init(nn.Linear(64, 1), std=1.0),
-        )
-        self.actor_mean = nn.Sequential(
-            layer_init(nn.Linear(obs_size, 64)), nn.Tanh(),
-            layer_init(nn.Linear(64, 64)), nn.Tanh(),
-            layer_init(nn.Linear(64, act_size), std=0.01),
-        )
-        # RallySim's trainer starts the log-std at -0.5 (std 0.61, the original ML-Agents
-        # setting) instead of CleanRL's 0: see --log-std-init
-        self.actor_logstd = nn.Parameter(torch.full((1, act_size), log_std_init))
+        # a near-zero output layer: every action starts close to 0 whatever the observation
+        self.mean = mlp([obs_dim, *hidden, act_dim], out_gain=0.01)
+        self.value_net = mlp([obs_dim, *hidden, 1], out_gain=1.0)
+        self.log_std = nn.Parameter(torch.full((act_dim,), float(log_std_init)))
 
-    def get_value(self, x: torch.Tensor) -> torch.Tensor:
-        return self.critic(x)
+    def policy(self, obs: torch.Tensor) -> torch.distributions.Normal:
+        return torch.distributions.Normal(self.mean(obs), self.log_std.exp())
 
-    def get_action_and_value(self, x: torch.Tensor, action: torch.Tensor | None = None):
-        mean = self.actor_mean(x)
-        probs = Normal(mean, self.actor_logstd.expand_as(mean).exp())
-        if action is None:
-            action = probs.sample()
-        return action, probs.log_prob(action).sum(1), probs.entropy().sum(1), self.critic(x)
+    def value(self, obs: torch.Tensor) -> torch.Tensor:
+        return self.value_net(obs).squeeze(-1)
+
+
+@dataclass
+class Rollout:
+    """One rollout, every field indexed [time, env]."""
+
+    obs: torch.Tensor
+    act: torch.Tensor
+    logp: torch.Tensor  # log-probability of ``act`` under the policy that sampled it
+    value: torch.Tensor
+    reward: torch.Tensor  # time-limit bootstrap included
+    ended: torch.Tensor  # 1.0 where the episode ended with this step
+
+
+def collect(envs, model: ActorCritic, obs: np.ndarray, horizon: int, gamma: float,
+            ep_return: np.ndarray, finished: list[float]) -> tuple[Rollout, np.ndarray]:
+    """``horizon`` steps of every env from ``obs``; returns the rollout and the obs after it.
+    Finished episodes' returns are appended to ``finished``."""
+    steps = []
+    for _ in range(horizon):
+        o = torch.as_tensor(obs)
+        with torch.no_grad():
+            dist = model.policy(o)
+            a = dist.sample()
+            logp, v = dist.log_prob(a).sum(-1), model.value(o)
+        obs, reward, terminated, truncated, info = envs.step(a.numpy())
+        ep_return += reward
+        ended = terminated | truncated
+        finished.extend(ep_return[ended])
+        ep_return[ended] = 0.0
+        r = torch.as_tensor(reward, dtype=torch.float32)
+        cut = np.flatnonzero(truncated & ~terminated)
+        if cut.size:  # the episode would have gone on: credit what its last state was worth
+            with torch.no_grad():
+                r[cut] += gamma * model.value(torch.as_tensor(info["final_obs"][cut]))
+        steps.append((o, a, logp, v, r, torch.as_tensor(ended, dtype=torch.float32)))
+    fields = [torch.stack(column) for column in zip(*steps, strict=True)]
+    return Rollout(*fields), obs
+
+
+def advantages(r: Rollout, last_value: torch.Tensor, gamma: float, lam: float) -> torch.Tensor:
+    """GAE: A_t = delta_t + gamma lam A_{t+1}, with delta_t = r_t + gamma V(s_{t+1}) - V(s_t),
+    and neither V(s_{t+1}) nor A_{t+1} counted when the episode ended at step t (with the
+    same-step autoreset s_{t+1} is then another episode's first state)."""
+    goes_on = 1.0 - r.ended
+    next_value = torch.cat((r.value[1:], last_value[None]))
+    delta = r.reward + gamma * goes_on * next_value - r.value
+    adv = torch.empty_like(delta)
+    acc = torch.zeros_like(last_value)
+    for t in range(len(delta) - 1, -1, -1):
+        acc = delta[t] + gamma * lam * goes_on[t] * acc
+        adv[t] = acc
+    return adv
+
+
+def update(model: ActorCritic, optim: torch.optim.Optimizer, r: Rollout, adv: torch.Tensor,
+           args: argparse.Namespace, gen: torch.Generator) -> None:
+    """PPO's clipped-objective update over the flattened rollout."""
+    obs, act = r.obs.flatten(0, 1), r.act.flatten(0, 1)
+    old_logp, adv = r.logp.flatten(), adv.flatten()
+    target = adv + r.value.flatten()  # the value regression's target: the lambda-return
+    size = len(adv) // args.minibatches
+    for _ in range(args.epochs):
+        for idx in torch.randperm(len(adv), generator=gen).split(size):
+            dist = model.policy(obs[idx])
+            ratio = torch.exp(dist.log_prob(act[idx]).sum(-1) - old_logp[idx])
+            a = adv[idx]
+            a = (a - a.mean()) / (a.std() + 1e-8)
+            surrogate = torch.minimum(ratio * a,
+                                      ratio.clamp(1.0 - args.clip, 1.0 + args.clip) * a)
+            value_loss = (model.value(obs[idx]) - target[idx]).square().mean()
+            entropy = dist.entropy().sum(-1).mean()
+            loss = -surrogate.mean() + args.vf_coef * value_loss - args.ent_coef * entropy
+            optim.zero_grad()
+            loss.backward()
+            nn.utils.clip_grad_norm_(model.parameters(), args.max_grad_norm)
+            optim.step()
 
 
 def main() -> None:
     args = parse_args()
-    np.random.seed(args.seed)
-    torch.manual_seed(args.seed)
+    torch.manual_seed(args.seed)  # the actions sampled in the rollouts
+    gen = torch.Generator().manual_seed(args.seed)  # the minibatch shuffles
     torch.set_num_threads(1)  # on a small CPU a second thread competes with the simulator
 
     envs = gym.make_vec(ENV_ID, num_envs=args.num_envs, vectorization_mode="vector_entry_point",
                         autoreset_mode="same_step")
-    n = args.num_envs
-    obs_size = envs.single_observation_space.shape[0]
-    act_size = envs.single_action_space.shape[0]
-    agent = Agent(obs_size, act_size, args.log_std_init)
-    optimizer = torch.optim.Adam(agent.parameters(), lr=args.learning_rate, eps=1e-5)
+    model = ActorCritic(envs.single_observation_space.shape[0],
+                        envs.single_action_space.shape[0], args.hidden, args.log_std_init)
+    optim = torch.optim.Adam(model.parameters(), lr=args.lr)
 
-    obs = torch.zeros((args.num_steps, n, obs_size))
-    actions = torch.zeros((args.num_steps, n, act_size))
-    logprobs = torch.zeros((args.num_steps, n))
-    rewards = torch.zeros((args.num_steps, n))
-    dones = torch.zeros((args.num_steps, n))
-    values = torch.zeros((args.num_steps, n))
-
-    global_step = 0
-    episode_return = np.zeros(n)
+    obs, _ = envs.reset(seed=args.seed)
+    ep_return = np.zeros(args.num_envs)
     finished: list[float] = []
-    next_obs_np, _ = envs.reset(seed=args.seed)
-    next_obs = torch.as_tensor(next_obs_np)
-    next_done = torch.zeros(n)
+    done_steps = 0
     start = time.perf_counter()
-    for iteration in range(1, args.num_iterations + 1):
-        if args.anneal_lr:
-            frac = 1.0 - (iteration - 1.0) / args.num_iterations
-            optimizer.param_groups[0]["lr"] = frac * args.learning_rate
-
-        for step in range(args.num_steps):
-            global_step += n
-            obs[step] = next_obs
-            dones[step] = next_done
-            with torch.no_grad():
-                action, logprob, _, value = agent.get_action_and_value(next_obs)
-            values[step] = value.flatten()
-            actions[step] = action
-            logprobs[step] = logprob
-
-            next_obs_np, reward, terminated, truncated, info = envs.step(action.numpy())
-            episode_return += reward
-            reward = reward.astype(np.float32)
-            cut = truncated & ~terminated
-            if cut.any():  # time limit: the episode goes on beyond it, so bootstrap its value
-                final = torch.as_tensor(info["final_obs"][cut])
-                with torch.no_grad():
-                    reward[cut] += args.gamma * agent.get_value(final).flatten().numpy()
-            done = terminated | truncated
-            finished += episode_return[done].tolist()
-            episode_return[done] = 0.0
-            rewards[step] = torch.as_tensor(reward)
-            next_obs = torch.as_tensor(next_obs_np)
-            next_done = torch.as_tensor(done, dtype=torch.float32)
-
-        # generalised advantage estimation
+    for k in range(args.updates):
+        if args.lr_decay:
+            optim.param_groups[0]["lr"] = args.lr * (args.total - done_steps) / args.total
+        rollout, obs = collect(envs, model, obs, args.num_steps, args.gamma, ep_return,
+                               finished)
+        done_steps += args.num_envs * args.num_steps
         with torch.no_grad():
-            next_value = agent.get_value(next_obs).reshape(1, -1)
-            advantages = torch.zeros_like(rewards)
-            lastgaelam = torch.zeros(n)
-            for t in reversed(range(args.num_steps)):
-                if t == args.num_steps - 1:
-                    nextnonterminal = 1.0 - next_done
-                    nextvalues = next_value
-                else:
-                    nextnonterminal = 1.0 - dones[t + 1]
-                    nextvalues = values[t + 1]
-                delta = rewards[t] + args.gamma * nextvalues * nextnonterminal - values[t]
-                lastgaelam = (delta + args.gamma * args.gae_lambda * nextnonterminal
-                              * lastgaelam)
-                advantages[t] = lastgaelam
-            returns = advantages + values
-
-        b_obs = obs.reshape(-1, obs_size)
-        b_actions = actions.reshape(-1, act_size)
-        b_logprobs = logprobs.reshape(-1)
-        b_advantages = advantages.reshape(-1)
-        b_returns = returns.reshape(-1)
-
-        b_inds = np.arange(args.batch_size)
-        for _epoch in range(args.update_epochs):
-            np.random.shuffle(b_inds)
-            for begin in range(0, args.batch_size, args.minibatch_size):
-                mb = b_inds[begin:begin + args.minibatch_size]
-                _, newlogprob, entropy, newvalue = agent.get_action_and_value(
-                    b_obs[mb], b_actions[mb])
-                ratio = (newlogprob - b_logprobs[mb]).exp()
-                mb_adv = b_advantages[mb]
-                mb_adv = (mb_adv - mb_adv.mean()) / (mb_adv.std() + 1e-8)
-                pg_loss = torch.max(
-                    -mb_adv * ratio,
-                    -mb_adv * torch.clamp(ratio, 1 - args.clip_coef, 1 + args.clip_coef),
-                ).mean()
-                v_loss = 0.5 * ((newvalue.view(-1) - b_returns[mb]) ** 2).mean()
-                loss = pg_loss - args.ent_coef * entropy.mean() + args.vf_coef * v_loss
-                optimizer.zero_grad()
-                loss.backward()
-                nn.utils.clip_grad_norm_(agent.parameters(), args.max_grad_norm)
-                optimizer.step()
-
-        if iteration % max(1, args.num_iterations // 10) == 0 and finished:
-            sps = global_step / (time.perf_counter() - start)
-            print(f"step {global_step:>9,}  episodic return {np.mean(finished[-500:]):6.3f}  "
-                  f"SPS {sps:,.0f}", flush=True)
-
+            last_value = model.value(torch.as_tensor(obs))
+        adv = advantages(rollout, last_value, args.gamma, args.gae_lambda)
+        update(model, optim, rollout, adv, args, gen)
+        if (k + 1) % max(1, args.updates // 10) == 0 and finished:
+            print(f"{done_steps:>10,} steps  mean return of the last 500 episodes "
+                  f"{np.mean(finished[-500:]):6.3f}  "
+                  f"{done_steps / (time.perf_counter() - start):,.0f} steps/s", flush=True)
     wall = time.perf_counter() - start
     envs.close()
-    rate = global_step / wall
-    print(f"speed: {rate:,.0f} env steps/s ({global_step:,} steps in {wall:.1f} s)")
+    rate = done_steps / wall
+    print(f"speed: {rate:,.0f} env steps/s ({done_steps:,} steps in {wall:.1f} s)")
 
-    def policy(x: np.ndarray) -> np.ndarray:
+    def act(x: np.ndarray) -> np.ndarray:
         with torch.no_grad():  # the deterministic action: the Gaussian's mean
-            return agent.actor_mean(torch.as_tensor(x)).numpy()
+            return model.mean(torch.as_tensor(x)).numpy()
 
-    ev = evaluate_return(policy, episodes=args.eval_episodes, seed=12345)
-    print(f"result: steps={global_step} steps_per_s={rate:.0f} "
-          f"train_return={np.mean(finished[-500:]) if finished else float('nan'):.3f} "
+    ev = evaluate_return(act, episodes=args.eval_episodes, seed=12345)
+    train_return = np.mean(finished[-500:]) if finished else float("nan")
+    print(f"result: steps={done_steps} steps_per_s={rate:.0f} train_return={train_return:.3f} "
           f"mean_reward={ev.mean_reward:.3f} hit_rate={ev.hit_rate:.3f} "
           f"in_court={ev.in_rate:.3f} landing_error_m={ev.median_error:.2f} "
           f"episodes={ev.episodes}")

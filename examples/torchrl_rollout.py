@@ -50,12 +50,20 @@ def rollout(name: str, env, steps: int, reward_key, done_key) -> None:
     env.close()
 
 
+def positive_int(text: str) -> int:
+    value = int(text)
+    if value <= 0:
+        raise argparse.ArgumentTypeError(f"must be a positive integer, got {text}")
+    return value
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--steps", type=int, help="rollout steps per env (default 2,000)")
+    parser.add_argument("--steps", type=positive_int,
+                        help="rollout steps per env (default 2,000)")
     parser.add_argument("--smoke", action="store_true", help="200 steps (unless --steps)")
     args = parser.parse_args()
-    steps = args.steps or (200 if args.smoke else 2000)
+    steps = args.steps if args.steps is not None else (200 if args.smoke else 2000)
 
     # 1. TorchRL makes the registered id itself (one env, one MuJoCo model)
     rollout("GymEnv", GymEnv(ENV_ID), steps, ("reward",), ("done",))

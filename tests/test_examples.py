@@ -1,13 +1,32 @@
-"""Every script in examples/ runs in its smoke mode and reports sane numbers.
+"""Every script in examples/ runs as ``python examples/x.py --smoke`` and gives its seeded numbers.
 
-Each runs in a fresh interpreter, exactly as a user would start it (``python examples/x.py
---smoke``), and its ``result:`` line is parsed. A script whose optional dependency is missing
-is skipped, naming the package (see ``pytest -rs``).
+Each script runs in a fresh interpreter, exactly as a user would start it, with ``--smoke`` and
+nothing else (the step counts are the scripts' own smoke settings), and its ``result:`` lines
+are parsed. A script whose optional dependency is missing is skipped, naming the package (see
+``pytest -rs``).
+
+What is checked, for each script:
+
+- bounds that hold on any machine: the step counts asked for, rates in [0, 1] with in-court
+  <= hit, and for the two PPO scripts, which learn within their smoke runs, a hit rate and a
+  mean reward well above any untrained policy's (random actions and untrained networks hit
+  5-17 % of these 64 evaluation serves, mean reward -0.4 to 0.1);
+- the numbers of its seeded smoke run, each held to its pinned value (the ``check_pinned``
+  calls) within one unit of the printed precision (for rates over 64 episodes: the same number
+  of episodes). The scripts are seeded and deterministic on one machine, so a pin fails when
+  the physics, the rules, an env, the evaluator or the script's training changes its results,
+  or a seed stops being passed through: each pinned number was checked to move out of its band
+  under at least one of a seed one higher, the shuttle's gravity 2 % stronger (50 % for the
+  one-env TorchRL rollout's episode count), its contact radius 20 % larger, landings on either
+  side of the net counted in court, or the optimiser's steps skipped. A deliberate change
+  re-pins from the printed ``result:`` line; so does a machine whose torch rounds differently
+  (the pins were taken on the project's x86-64 VM, torch 2.13.0 CPU).
 """
 
 from __future__ import annotations
 
 import math
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -16,12 +35,21 @@ import pytest
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 
+# bands: one unit of the printed precision (rewards, returns and rally lengths to 0.001,
+# landing errors to 0.01 m); a rate over 64 evaluation episodes moves by 1/64 per episode
+RATE, REWARD, ERROR_M = 0.01, 0.0015, 0.015
 
-def run_example(name: str, *args: str, cwd: Path) -> list[dict[str, str]]:
-    """Run ``examples/name --smoke args``; its ``result:`` lines as key=value dicts."""
+
+def run_example(name: str, *args: str, cwd: Path, quiet: bool = False,
+                env: dict[str, str] | None = None) -> list[dict[str, str]]:
+    """Run ``examples/name --smoke args``; its ``result:`` lines as key=value dicts.
+    ``quiet``: the script must also print nothing to stderr (no warnings). ``env``: extra
+    environment variables."""
     proc = subprocess.run([sys.executable, str(EXAMPLES / name), "--smoke", *args],
-                          capture_output=True, text=True, timeout=400, cwd=cwd)
+                          capture_output=True, text=True, timeout=400, cwd=cwd,
+                          env={**os.environ, **(env or {})})
     assert proc.returncode == 0, f"{name} failed:\n{proc.stdout[-2000:]}\n{proc.stderr[-4000:]}"
+    assert not (quiet and proc.stderr), f"{name} printed to stderr:\n{proc.stderr[-4000:]}"
     results = [dict(kv.split("=", 1) for kv in line.split()[1:])
                for line in proc.stdout.splitlines() if line.startswith("result:")]
     assert results, f"{name} printed no result line:\n{proc.stdout[-2000:]}"
@@ -35,24 +63,37 @@ def number(result: dict[str, str], key: str) -> float:
     return value
 
 
+def check_pinned(name: str, r: dict[str, str], pinned: dict[str, tuple[float, float]]) -> None:
+    """Every pinned number within its band; all that are not are named at once."""
+    off = {key: f"{r[key]} (pinned {value} +- {tol})" for key, (value, tol) in pinned.items()
+           if not abs(number(r, key) - value) <= tol}
+    assert not off, (f"{name}: seeded smoke results moved: {off}. If the physics, the env or "
+                     "the example changed on purpose, re-pin from its result line.")
+
+
 def check_low_level(r: dict[str, str], steps: int) -> None:
-    """The low-level task's evaluation numbers: 64 seeded episodes of the trained policy."""
+    """Machine-independent bounds on the low-level task's evaluation numbers (64 episodes)."""
     assert int(r["steps"]) == steps
     assert int(r["episodes"]) == 64
-    assert number(r, "steps_per_s") > 0
-    # a mean episode reward lies between the all-bad shaping of a long episode (-0.75) and a
-    # hit (+1) with a perfect landing (+1) plus shaping
-    assert -1.0 < number(r, "mean_reward") < 2.2
     hit, in_court = number(r, "hit_rate"), number(r, "in_court")
     assert 0.0 <= in_court <= hit <= 1.0  # landing in court needs a hit
-    assert hit > 0.0  # some serves fall onto the racket even before training (10 %)
+
+
+def check_learned(r: dict[str, str]) -> None:
+    """A smoke run of PPO (131,072 steps) learns to hit: seeds 0 and 1 hit 61-95 % with a mean
+    reward of 0.60-0.92, untrained policies 5-17 % (mean reward at most 0.1)."""
+    assert number(r, "hit_rate") >= 0.4, r
+    assert number(r, "mean_reward") >= 0.3, r
 
 
 def test_sb3_ppo_and_its_export(tmp_path):
     pytest.importorskip("stable_baselines3")
-    [r] = run_example("sb3_ppo.py", "--steps", "8192", "--save", str(tmp_path / "ppo"),
-                      cwd=tmp_path)
-    check_low_level(r, 8192)
+    [r] = run_example("sb3_ppo.py", "--save", str(tmp_path / "ppo"), cwd=tmp_path)
+    check_low_level(r, 131_072)
+    check_learned(r)
+    check_pinned("sb3_ppo.py", r, {
+        "mean_reward": (0.785, REWARD), "hit_rate": (0.750, RATE), "in_court": (0.0, RATE),
+        "landing_error_m": (8.47, ERROR_M)})
     # The exported actor (safetensors + JSON, no pickle) is the policy the script evaluated.
     from rallysim.eval.low_eval import evaluate_return
     from rallysim.policies.mlp import load_policy
@@ -64,47 +105,105 @@ def test_sb3_ppo_and_its_export(tmp_path):
 
 def test_sb3_sac(tmp_path):
     pytest.importorskip("stable_baselines3")
-    [r] = run_example("sb3_sac.py", "--steps", "3072", cwd=tmp_path)
+    [r] = run_example("sb3_sac.py", cwd=tmp_path)
     check_low_level(r, 3072)
+    # 3,072 steps: SAC has not learned yet, but its seeded run is pinned all the same
+    check_pinned("sb3_sac.py", r, {
+        "mean_reward": (0.051, REWARD), "hit_rate": (0.109, RATE), "in_court": (0.0, RATE),
+        "landing_error_m": (9.10, ERROR_M)})
 
 
 def test_cleanrl_style_ppo(tmp_path):
     pytest.importorskip("torch")
-    [r] = run_example("cleanrl_ppo.py", "--steps", "8192", cwd=tmp_path)
-    check_low_level(r, 8192)
-    assert number(r, "train_return") > -1.0
+    [r] = run_example("cleanrl_ppo.py", cwd=tmp_path)
+    check_low_level(r, 131_072)
+    check_learned(r)
+    check_pinned("cleanrl_ppo.py", r, {
+        "train_return": (0.708, REWARD), "mean_reward": (0.918, REWARD),
+        "hit_rate": (0.953, RATE), "in_court": (0.0, RATE), "landing_error_m": (7.87, ERROR_M)})
+
+
+def test_cleanrl_style_ppo_rounds_steps_up_to_whole_rollouts_and_says_so(tmp_path):
+    pytest.importorskip("torch")
+    proc = subprocess.run([sys.executable, str(EXAMPLES / "cleanrl_ppo.py"), "--steps", "100",
+                           "--num-envs", "4", "--num-steps", "8", "--minibatches", "2",
+                           "--epochs", "1"], capture_output=True, text=True, timeout=200,
+                          cwd=tmp_path, check=True)
+    assert "training 128 env steps (100 rounded up to whole rollouts): 4 updates" in proc.stdout
+    assert "result: steps=128 " in proc.stdout
+
+
+@pytest.mark.parametrize(("script", "steps"), [
+    ("sb3_ppo.py", "0"), ("sb3_sac.py", "0"), ("cleanrl_ppo.py", "0"), ("cleanrl_ppo.py", "-5"),
+    ("torchrl_rollout.py", "0"), ("supersuit_sb3.py", "0"), ("pettingzoo_random.py", "0"),
+    ("rllib_rally.py", "0"),
+])
+def test_non_positive_steps_are_refused(script, steps, tmp_path):
+    """``--steps 0`` is refused with argparse's usage error (exit 2), not taken as the default.
+    (Parsing happens before any work; rllib_rally.py without Ray exits 2 as well, first.)"""
+    proc = subprocess.run([sys.executable, str(EXAMPLES / script), "--steps", steps],
+                          capture_output=True, text=True, timeout=120, cwd=tmp_path)
+    assert proc.returncode == 2, proc.stderr[-2000:]
+    if "needs Ray RLlib" not in proc.stderr:
+        assert f"argument --steps: must be a positive integer, got {steps}" in proc.stderr, (
+            proc.stderr)
 
 
 def test_torchrl_rollouts(tmp_path):
     pytest.importorskip("torchrl")
-    single, batched, rally = run_example("torchrl_rollout.py", "--steps", "150", cwd=tmp_path)
-    assert [r["env"] for r in (single, batched, rally)] == [
-        "GymEnv", "GymWrapper-make_vec-x64", "PettingZooWrapper-simple_rally_v0"]
-    assert all(int(r["steps"]) == 150 for r in (single, batched, rally))
-    assert [int(r["env_steps"]) for r in (single, batched, rally)] == [150, 150 * 64, 150]
-    # a serve lands within about 2 s (20 decisions): episodes end throughout the rollouts
-    assert int(single["episodes"]) >= 3 and int(batched["episodes"]) >= 3 * 64
-    assert int(rally["episodes"]) >= 1
-    for r in (single, batched):  # random swings: shaping (-0.005 per physics step) and hits
-        assert -0.03 < number(r, "mean_step_reward") < 0.3
-    assert 0.0 <= number(rally, "mean_step_reward") < 0.2  # +0.2 per hit, never negative
+    single, batched, rally = run_example("torchrl_rollout.py", cwd=tmp_path)
+    assert all(int(r["steps"]) == 200 for r in (single, batched, rally))
+    assert [int(r["env_steps"]) for r in (single, batched, rally)] == [200, 200 * 64, 200]
+    # the three rollouts' numbers checked together, so that every one that moved is named
+    every = {f"{r['env']}.{key}": value
+             for r in (single, batched, rally) for key, value in r.items()}
+    check_pinned("torchrl_rollout.py", every, {
+        "GymEnv.episodes": (10, 0), "GymEnv.mean_step_reward": (-0.0012, 1e-4),
+        "GymWrapper-make_vec-x64.episodes": (564, 0),
+        "GymWrapper-make_vec-x64.mean_step_reward": (0.0027, 1e-4),
+        "PettingZooWrapper-simple_rally_v0.episodes": (7, 0),
+        "PettingZooWrapper-simple_rally_v0.mean_step_reward": (0.0030, 1e-4)})
 
 
-def test_supersuit_sb3_rally(tmp_path):
-    pytest.importorskip("supersuit")
+@pytest.mark.parametrize(("vec", "pinned"), [
+    ("supersuit", {"train_return": (0.070, REWARD), "mean_rally": (0.125, 0.01)}),
+    ("native", {"train_return": (0.060, REWARD), "mean_rally": (0.125, 0.01)}),
+])
+def test_supersuit_sb3_rally(vec, pinned, tmp_path):
     pytest.importorskip("stable_baselines3")
-    [r] = run_example("supersuit_sb3.py", "--steps", "2048", cwd=tmp_path)
+    if vec == "supersuit":
+        pytest.importorskip("supersuit")
+    # quiet: no warnings, SB3's "render_mode attribute is not defined" included
+    [r] = run_example("supersuit_sb3.py", "--vec", vec, cwd=tmp_path, quiet=True)
     assert int(r["steps"]) == 2048 and int(r["rallies"]) == 16
-    assert int(r["episodes"]) > 0  # a rally of untrained players ends within ~2 s
-    assert 0.0 <= number(r, "train_return") < 1.0  # +0.2 per hit to both players
-    assert 0.0 <= number(r, "mean_rally") < 50.0
+    check_pinned(f"supersuit_sb3.py --vec {vec}", r, pinned)
+
+
+def test_pettingzoo_random(tmp_path):
+    [r] = run_example("pettingzoo_random.py", cwd=tmp_path)
+    assert int(r["steps"]) == 500
+    check_pinned("pettingzoo_random.py", r, {"rallies": (22, 0), "mean_rally": (0.273, 0.001)})
 
 
 def test_rllib_rally(tmp_path):
     pytest.importorskip("ray")
-    [r] = run_example("rllib_rally.py", "--steps", "1024", cwd=tmp_path)
+    # a seeded RLlib run also depends on Python's string hashing: with PYTHONHASHSEED unset,
+    # runs give one of two results (see the script's docstring)
+    [r] = run_example("rllib_rally.py", cwd=tmp_path, env={"PYTHONHASHSEED": "0"})
     # RLlib samples whole batches of 1,024 agent steps (rounded up to whole env steps)
-    assert int(r["requested"]) == 1024 <= int(r["steps"]) < 1024 + 64
+    assert int(r["requested"]) == 2048 <= int(r["steps"]) < 2048 + 64
     assert int(r["rallies"]) == 16
-    assert 0.0 <= number(r, "train_return") < 1.0
-    assert 0.0 <= number(r, "mean_rally") < 50.0
+    check_pinned("rllib_rally.py", r, {"steps": (2052, 0), "train_return": (0.057, REWARD),
+                                       "mean_rally": (0.0, 0.01)})
+
+
+def test_rllib_rally_without_ray_names_the_extra(tmp_path):
+    """Without Ray (hidden here, whether installed or not): one line, exit status 2."""
+    code = ("import runpy, sys; sys.modules['ray'] = None; "
+            f"sys.argv = ['rllib_rally.py', '--smoke']; "
+            f"runpy.run_path({str(EXAMPLES / 'rllib_rally.py')!r}, run_name='__main__')")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=120, cwd=tmp_path)
+    assert proc.returncode == 2
+    assert proc.stdout == "" and proc.stderr.count("\n") == 1, proc.stderr
+    assert 'pip install torch==2.13.0 && pip install "rallysim[ray]"' in proc.stderr

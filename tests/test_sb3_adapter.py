@@ -12,6 +12,7 @@ import pytest
 pytest.importorskip("stable_baselines3")
 
 from stable_baselines3.common.env_util import make_vec_env as sb3_make_vec_env
+from stable_baselines3.common.vec_env import DummyVecEnv, VecMonitor, VecNormalize
 
 from rallysim.envs.simple_obs import normalise_depth
 from rallysim.envs.simple_return_v0 import SimpleReturnVectorEnv
@@ -99,15 +100,27 @@ def test_unseeded_batches_differ():
     assert not np.array_equal(make_vec_env(ID, 4).reset(), make_vec_env(ID, 4).reset())
 
 
+BATCHED_IDS = ["RallySim/HumanLikeRallyTurn-v0", "RallySim/HumanLikeReturn-v0",
+               "RallySim/SimpleRallyTurn-v0", "RallySim/SimpleRallyTurn-v1",
+               "RallySim/SimpleReturn-v0"]
+
+
 def test_every_batched_id_builds():
     ids = native_ids()
-    assert {ID, "RallySim/SimpleRallyTurn-v0", "RallySim/HumanLikeReturn-v0"} <= set(ids)
-    assert "CartPole-v1" not in ids  # a vector entry point, but not a RallySim batched env
+    # exactly these five (docs/using-with.md lists them); CartPole-v1 has a vector entry
+    # point, but not a RallySim batched env
+    assert ids == BATCHED_IDS
     for env_id in ids:
         vec = make_vec_env(env_id, 2, seed=0)
         assert vec.reset().shape == (2, *vec.observation_space.shape), env_id
     turn = make_vec_env("RallySim/SimpleRallyTurn-v0", 2, seed=0)
     assert (turn.action_space.low[0], turn.action_space.high[0]) == (2.0, 6.0)
+
+
+def test_an_unknown_id_s_error_lists_every_batched_id():
+    with pytest.raises(ValueError, match="unknown environment id") as err:
+        make_vec_env("RallySim/NoSuch-v0", 2)
+    assert all(env_id in str(err.value) for env_id in BATCHED_IDS)
 
 
 @pytest.mark.parametrize(("args", "kwargs", "match"), [
@@ -135,6 +148,47 @@ def test_bad_inputs_say_what_is_wrong(args, kwargs, match):
         make_vec_env(*args, **kwargs)
 
 
+@pytest.mark.parametrize(("kwargs", "named"), [
+    ({"monitor_dir": "logs"}, "monitor_dir"),
+    ({"monitor_kwargs": {"info_keywords": ("hit",)}}, "monitor_kwargs"),
+    ({"wrapper_class": gym.wrappers.ClipAction}, "wrapper_class"),
+    ({"wrapper_kwargs": {"x": 1}}, "wrapper_kwargs"),
+    ({"vec_env_cls": DummyVecEnv}, "vec_env_cls"),
+    ({"vec_env_kwargs": {"start_method": "fork"}}, "vec_env_kwargs"),
+    ({"start_index": 4}, "start_index"),
+    ({"start_index": True}, "start_index"),
+    ({"monitor_dir": "logs", "vec_env_cls": DummyVecEnv}, "monitor_dir, vec_env_cls"),
+])
+def test_sb3_s_per_env_arguments_are_refused_with_the_reason(kwargs, named):
+    """SB3's make_vec_env arguments that act on per-environment objects: a ValueError that
+    names them and says what to do (not a TypeError for an unexpected keyword)."""
+    with pytest.raises(ValueError, match=rf"cannot apply {named}: it builds one batched env.*"
+                                         r"per-environment wrapper.*VecMonitor.*VecNormalize"):
+        make_vec_env(ID, 2, **kwargs)
+
+
+def test_sb3_s_defaults_for_those_arguments_are_accepted():
+    """SB3's signature, SB3's order and defaults: a call written for SB3 that leaves them at
+    their defaults (positionally too) builds the batched env, the same as without them."""
+    args = (ID, 2, 5, 0, None, None, {"shuttle": "aero"}, None, {}, None, {})
+    vec = make_vec_env(*args)
+    assert vec.venv.unwrapped.task.game.flight.name == "aero"
+    np.testing.assert_array_equal(vec.reset(),
+                                  make_vec_env(ID, 2, seed=5, env_kwargs={"shuttle": "aero"})
+                                  .reset())
+    make_vec_env(ID, 2, start_index=np.int64(0), monitor_kwargs={}, wrapper_kwargs=None)
+
+
+def test_sb3_s_vec_env_wrappers_apply_to_the_result(tmp_path):
+    """What the refusal suggests works: VecMonitor (with its file) and VecNormalize."""
+    env = VecNormalize(VecMonitor(make_vec_env(ID, 4, seed=0), str(tmp_path / "run")))
+    env.reset()
+    for _ in range(40):
+        env.step(np.zeros((4, 3), np.float32))
+    rows = (tmp_path / "run.monitor.csv").read_text().splitlines()
+    assert len(rows) > 2 and rows[1] == "r,l,t"  # header, columns, then episodes
+
+
 def test_env_s_own_checks_still_apply():
     with pytest.raises(ValueError, match="unknown shuttle"):
         make_vec_env(ID, 2, env_kwargs={"shuttle": "feather"})
@@ -146,3 +200,18 @@ def test_missing_sb3_names_the_extra():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True).stdout
     assert "rallysim.sb3 needs Stable-Baselines3" in out and "rallysim[train]" in out
+
+
+@pytest.mark.parametrize(("missing", "translated"), [
+    ("stable_baselines3", True), ("stable_baselines3.common.vec_env", True), ("torch", True),
+    ("cloudpickle", False),  # SB3 imports it: its own error, not "install SB3"
+])
+def test_only_missing_sb3_or_torch_is_translated(missing, translated):
+    code = (f"import sys; sys.modules[{missing!r}] = None\n"
+            "try:\n    import rallysim.sb3\n"
+            "except ModuleNotFoundError as e:\n    print(e.name, '|', e)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout
+    name, _, message = out.partition(" | ")
+    assert name.partition(".")[0] == missing.partition(".")[0]  # the error keeps its name
+    assert ("rallysim.sb3 needs Stable-Baselines3" in message) is translated, message

@@ -3,12 +3,21 @@
 SB3's own ``stable_baselines3.common.env_util.make_vec_env`` builds one Python env object per
 environment and steps them one after another (``DummyVecEnv``). RallySim's registered ids also
 have a *vector entry point*: one batched MuJoCo model that steps all N environments in one
-call. This module's ``make_vec_env`` takes the same first arguments as SB3's and returns an SB3
-``VecEnv`` over that batched env, so a training script changes one import::
+call. This module's ``make_vec_env`` has the signature of SB3's and returns an SB3 ``VecEnv``
+over that batched env, so a training script that builds its env from ``env_id``, ``n_envs``,
+``seed`` and ``env_kwargs`` changes one import::
 
     from rallysim.sb3 import make_vec_env      # instead of stable_baselines3's
     env = make_vec_env("RallySim/SimpleReturn-v0", n_envs=256, seed=0)
     model = PPO("MlpPolicy", env, ...)
+
+SB3's other arguments build things around each of its per-environment env objects (a
+``Monitor`` and its files: ``monitor_dir``, ``monitor_kwargs``; a gym wrapper:
+``wrapper_class``, ``wrapper_kwargs``; the ``VecEnv`` class that steps them: ``vec_env_cls``,
+``vec_env_kwargs``; ``start_index``, the first env object's rank). One batched env has no
+such objects, so these are accepted by name but refused with a ``ValueError`` saying so unless
+left at SB3's defaults; wrap the returned ``VecEnv`` in SB3's ``VecEnv`` wrappers instead
+(``VecMonitor(env, filename)`` for monitor files, ``VecNormalize``, ``VecFrameStack``, ...).
 
 The returned ``NativeVecEnv`` (``rallysim.train.sb3_vec``) follows SB3's conventions: a
 finished environment is reset in the same step, its last observation is
@@ -24,6 +33,7 @@ Needs Stable-Baselines3 (the ``train`` extra).
 from __future__ import annotations
 
 import inspect
+import numbers
 from typing import Any
 
 import gymnasium as gym
@@ -35,8 +45,10 @@ from rallysim.envs.vector_base import NativeVectorEnv
 try:
     from rallysim.train.sb3_vec import NativeVecEnv
 except ModuleNotFoundError as err:  # SB3 (or torch) is an extra, not a dependency
+    if (err.name or "").partition(".")[0] not in ("stable_baselines3", "torch"):
+        raise  # something else is missing: its own error says what
     raise ModuleNotFoundError(f"rallysim.sb3 needs Stable-Baselines3 ({err}): install "
-                              "torch==2.13.0, then rallysim[train]") from err
+                              "torch==2.13.0, then rallysim[train]", name=err.name) from err
 
 # (``import rallysim``, which runs before this module, registered the ids looked up here)
 
@@ -79,16 +91,49 @@ def _check_kwargs(env_id: str, cls: Any, kwargs: dict[str, Any]) -> None:
                          f"{', '.join(valid)}")
 
 
+def _refuse_per_env_arguments(**given: Any) -> None:
+    """SB3's ``make_vec_env`` arguments that act on its per-environment objects: refused
+    unless left at SB3's defaults (``start_index`` 0, the others None or an empty dict)."""
+    def is_default(name: str, value: Any) -> bool:
+        if name == "start_index":
+            return (isinstance(value, numbers.Integral) and not isinstance(value, bool)
+                    and value == 0)
+        return value is None or (name.endswith("_kwargs") and isinstance(value, dict)
+                                 and not value)
+
+    refused = [name for name, value in given.items() if not is_default(name, value)]
+    if refused:
+        raise ValueError(
+            f"rallysim.sb3.make_vec_env cannot apply {', '.join(refused)}: it builds one batched "
+            "env (one MuJoCo model for all n_envs environments), not one env object per "
+            "environment, so there is nothing to give a per-environment wrapper, Monitor, "
+            "start_index or vec_env_cls. Wrap the returned VecEnv in SB3's VecEnv wrappers "
+            "instead (VecMonitor(env, filename) for monitor files, VecNormalize, "
+            f"VecFrameStack, ...), or use {_SB3_HINT}")
+
+
 def make_vec_env(env_id: str, n_envs: int = 1, seed: int | None = None,
-                 env_kwargs: dict[str, Any] | None = None) -> NativeVecEnv:
+                 start_index: int = 0, monitor_dir: str | None = None,
+                 wrapper_class: Any = None, env_kwargs: dict[str, Any] | None = None,
+                 vec_env_cls: Any = None, vec_env_kwargs: dict[str, Any] | None = None,
+                 monitor_kwargs: dict[str, Any] | None = None,
+                 wrapper_kwargs: dict[str, Any] | None = None) -> NativeVecEnv:
     """An SB3 ``VecEnv`` of ``n_envs`` environments of ``env_id`` in one batched MuJoCo model.
 
-    ``seed``: environment *i* is seeded ``seed + i`` at the first ``reset()`` (as SB3's
-    ``make_vec_env`` does; an algorithm given its own ``seed`` re-seeds the same way).
-    ``env_kwargs``: the env's own arguments (``shuttle``, ``target_depth_range``,
-    ``max_decisions``, ...; see its docs). Raises ``ValueError`` for an id that is not
-    registered or has no RallySim vector entry point, saying what to use instead.
+    The arguments are SB3's ``make_vec_env``'s, in its order. ``seed``: environment *i* is
+    seeded ``seed + i`` at the first ``reset()`` (as SB3's ``make_vec_env`` does; an
+    algorithm given its own ``seed`` re-seeds the same way). ``env_kwargs``: the env's own
+    arguments (``shuttle``, ``target_depth_range``, ``max_decisions``, ...; see its docs).
+    ``start_index``, ``monitor_dir``, ``wrapper_class``, ``vec_env_cls``, ``vec_env_kwargs``,
+    ``monitor_kwargs`` and ``wrapper_kwargs`` apply to SB3's per-environment env objects, which
+    a batched env does not have: anything but their defaults (0, None or an empty dict) raises
+    ``ValueError`` (see the module's docs for what to use instead). Raises ``ValueError`` for
+    an id that is not registered or has no RallySim vector entry point, saying what to use.
     """
+    _refuse_per_env_arguments(start_index=start_index, monitor_dir=monitor_dir,
+                              wrapper_class=wrapper_class, vec_env_cls=vec_env_cls,
+                              vec_env_kwargs=vec_env_kwargs, monitor_kwargs=monitor_kwargs,
+                              wrapper_kwargs=wrapper_kwargs)
     if not isinstance(env_id, str):
         raise ValueError(f"env_id must be a registered id string, got {type(env_id).__name__}")
     n_envs = positive_int(n_envs, "n_envs")
