@@ -48,7 +48,7 @@ class FakeViewer:
 
 
 def test_play_moves_the_human_player_by_keyboard():
-    from rallysim.envs.turn_task import resolve_low_level
+    from rallysim.policies.registry import resolve
     from rallysim.render import play as play_module
 
     moves = []
@@ -66,7 +66,7 @@ def test_play_moves_the_human_player_by_keyboard():
 
     play_module.RallyTask.step = spy
     try:
-        play_module.play(resolve_low_level("scripted"), lambda o: np.full(len(o), 4.0), human=0,
+        play_module.play(resolve("scripted", "rally_low"), lambda o: np.full(len(o), 4.0), human=0,
                          viewer_factory=factory, realtime=False)
     finally:
         play_module.RallyTask.step = orig_step

@@ -7,13 +7,11 @@ import pytest
 from pettingzoo.test import api_test, parallel_api_test
 
 from rallysim.envs import humanlike_rally_v0 as hr
-from rallysim.envs.humanlike_rally_task import (
-    HumanLikeRallyTask,
-    low_level_observations,
-    targets_from_goals,
-)
+from rallysim.envs.humanlike_rally_task import HumanLikeRallyTask
 from rallysim.envs.rally_task import RallyConfig
 from rallysim.eval.rally_eval import rally_lengths_turns
+from rallysim.players.humanlike import low_observations as low_level_observations
+from rallysim.players.humanlike import targets_from_goals
 
 
 def test_goal_mapping_spans_the_low_level_targets():

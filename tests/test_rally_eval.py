@@ -2,13 +2,9 @@
 
 import numpy as np
 
-from rallysim.eval.rally_eval import (
-    goal_conditioned,
-    rally_lengths_direct,
-    rally_lengths_turns,
-    random_goals,
-)
+from rallysim.eval.rally_eval import rally_lengths_direct, rally_lengths_turns, random_goals
 from rallysim.policies import ScriptedController
+from rallysim.policies.registry import goal_conditioned
 
 
 def test_scripted_hierarchy_rallies_long_and_random_motor_control_does_not():

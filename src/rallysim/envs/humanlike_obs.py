@@ -26,17 +26,23 @@ import numpy as np
 
 from rallysim.core.game import Game
 from rallysim.core.humanlike import HumanLikeBodies
+from rallysim.core.layout import Layout
 from rallysim.envs.simple_obs import POSITION_CENTRE, POSITION_SCALE, SHUTTLE_SPEED_SCALE
 
-N_BODIES = 5
+BODIES = ("spine", "chest", "upper_arm", "lower_arm", "hand")
+N_BODIES = len(BODIES)
 BODY_OBS_SIZE = 14
-PLAYER_OBS_SIZE = N_BODIES * BODY_OBS_SIZE + 12  # 82
+PLAYER_OBS = Layout((*((body, BODY_OBS_SIZE) for body in BODIES), ("shuttle_position", 3),
+                     ("shuttle_velocity", 3), ("hips_position", 3), ("racket_position", 3)))
+PLAYER_OBS_SIZE = PLAYER_OBS.size  # 82
 BODY_SPEED_SCALE = 15.0  # m/s: the hand of a full-speed swing
 BODY_RATE_SCALE = 40.0  # rad/s: joints are capped at 30 (50 when limp)
 BODY_OFFSET_SCALE = 1.5  # m: the hand reaches 1.2 m from the hips
-SHUTTLE = slice(70, 76)  # shuttle position and velocity
-HIPS = slice(76, 79)
-RACKET = slice(79, 82)
+SHUTTLE = slice(PLAYER_OBS["shuttle_position"].start, PLAYER_OBS["shuttle_velocity"].stop)
+HIPS = PLAYER_OBS["hips_position"]
+RACKET = PLAYER_OBS["racket_position"]
+SHUTTLE_POSITION = PLAYER_OBS["shuttle_position"]
+SHUTTLE_VELOCITY = PLAYER_OBS["shuttle_velocity"]
 
 
 def player_observations(game: Game) -> np.ndarray:
@@ -53,12 +59,12 @@ def player_observations(game: Game) -> np.ndarray:
     body[..., 9:13] = quat
     np.subtract(2.0 * b.body_effort(), 1.0, out=body[..., 13])
     flip = b.flip  # x and y change sign in player 1's frame, z does not
-    np.multiply(game.shuttle.pos[:, None, :], flip, out=out[..., 70:73])
-    np.multiply(game.shuttle.vel[:, None, :], flip, out=out[..., 73:76])
-    out[..., 73:76] /= SHUTTLE_SPEED_SCALE
+    np.multiply(game.shuttle.pos[:, None, :], flip, out=out[..., SHUTTLE_POSITION])
+    np.multiply(game.shuttle.vel[:, None, :], flip, out=out[..., SHUTTLE_VELOCITY])
+    out[..., SHUTTLE_VELOCITY] /= SHUTTLE_SPEED_SCALE
     out[..., HIPS] = b.hips_position()
     out[..., RACKET] = b.face_centre()
-    for positions in (out[..., 70:73], out[..., HIPS], out[..., RACKET]):
+    for positions in (out[..., SHUTTLE_POSITION], out[..., HIPS], out[..., RACKET]):
         positions -= POSITION_CENTRE  # normalise_position, in place
         positions /= POSITION_SCALE
     return out

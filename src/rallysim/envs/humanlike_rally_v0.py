@@ -66,7 +66,7 @@ from rallysim.envs.simple_rally_v0 import (
     SimpleRallyTurnVectorEnv,
     SimpleRallyVectorEnv,
 )
-from rallysim.envs.turn_task import LowLevel
+from rallysim.policies.types import LowLevel
 
 __all__ = ["HumanLikeRallyAECEnv", "HumanLikeRallyParallelEnv", "HumanLikeRallyTurnAECEnv",
            "HumanLikeRallyTurnEnv", "HumanLikeRallyTurnVectorEnv", "HumanLikeRallyVectorEnv",

@@ -88,45 +88,21 @@ from rallysim.envs.simple_obs import POSITION_CENTRE, POSITION_SCALE, SHUTTLE_SP
 from rallysim.envs.task_env import TaskEnv, box_spaces
 from rallysim.envs.validation import positive_int, read_options
 from rallysim.envs.vector_base import NEXT_STEP, TaskVectorEnv
+from rallysim.players.humanlike import (
+    TARGET_SCALE,
+    sample_serves,
+    sample_targets,
+)
 
 OBS_SIZE = PLAYER_OBS_SIZE + 3  # 85
 ACTION_SIZE = N_ACTIONS  # 15
 MAX_DECISIONS = 1000
 R_HIT = 1.0
 R_VELOCITY_RATE = 1.5
-TARGET_SPEED = (1.5, 4.5)  # m/s
-TARGET_ELEVATION = (np.radians(40.0), np.radians(50.0))
-TARGET_AZIMUTH = (np.radians(-30.0), np.radians(30.0))
-TARGET_SCALE = 5.0  # m/s: observed target = v* / 5; an option's components must lie in +-5
-SERVE_X, SERVE_Y, SERVE_Z = (1.0, 6.0), (-1.0, 1.0), (1.0, 1.5)  # receiver's own frame
-SERVE_LATERAL, SERVE_RISE, SERVE_TOWARD = (-0.5, 0.5), (2.0, 3.0), 3.0
-SERVE_SPEED = 15.0
 HIPS_START = np.array([[-4.5, -1.5], [-1.5, 1.5]])  # x and y ranges
 MIN_TARGET_SPEED = 0.5  # m/s: a target needs a direction, and the speed error divides by it
 HIT_KEYS = ("racket_velocity", "velocity_error", "angle_error", "speed_error")
 N_DRAWS = 10  # uniforms one reset consumes per environment (before the rulebook's own serve)
-
-
-def sample_targets(u: np.ndarray) -> np.ndarray:
-    """Target racket velocities (n, 3), own frame, from uniforms ``u`` (n, 3) in [0, 1)."""
-    speed = TARGET_SPEED[0] + u[:, 0] * (TARGET_SPEED[1] - TARGET_SPEED[0])
-    elev = TARGET_ELEVATION[0] + u[:, 1] * (TARGET_ELEVATION[1] - TARGET_ELEVATION[0])
-    azim = TARGET_AZIMUTH[0] + u[:, 2] * (TARGET_AZIMUTH[1] - TARGET_AZIMUTH[0])
-    return speed[:, None] * np.stack([np.cos(elev) * np.cos(azim), np.cos(elev) * np.sin(azim),
-                                      np.sin(elev)], axis=1)
-
-
-def sample_serves(u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """HUMAN-LIKE serves toward player 0 (world = its own frame) from uniforms ``u`` (n, 5):
-    positions and velocities, (n, 3) each."""
-    pos = np.stack([SERVE_X[0] + u[:, 0] * (SERVE_X[1] - SERVE_X[0]),
-                    SERVE_Y[0] + u[:, 1] * (SERVE_Y[1] - SERVE_Y[0]),
-                    SERVE_Z[0] + u[:, 2] * (SERVE_Z[1] - SERVE_Z[0])], axis=1)
-    direction = np.stack([np.full(len(u), -SERVE_TOWARD),
-                          SERVE_LATERAL[0] + u[:, 3] * (SERVE_LATERAL[1] - SERVE_LATERAL[0]),
-                          SERVE_RISE[0] + u[:, 4] * (SERVE_RISE[1] - SERVE_RISE[0])], axis=1)
-    direction /= np.linalg.norm(direction, axis=1, keepdims=True)
-    return pos, SERVE_SPEED * direction
 
 
 class HumanLikeReturnTask:

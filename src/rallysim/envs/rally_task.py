@@ -21,10 +21,11 @@ from typing import Any
 import numpy as np
 
 from rallysim.core.game import Game
-from rallysim.envs.simple_obs import PLAYER_OBS_SIZE, normalise_position, player_observations
+from rallysim.envs.simple_obs import normalise_position
+from rallysim.players import SIMPLE, PlayerSpec
 
-RALLY_OBS_SIZE = PLAYER_OBS_SIZE + 4  # + opponent base position (3) + "my turn" flag (1)
-START_BASE_X = (-2.7, -2.44)  # own-frame base x of players 0 and 1 at a rally's start (SPEC §7)
+RALLY_OBS_SIZE = SIMPLE.rally_obs.size  # the player's 16, opponent base position 3, "my turn" 1
+START_BASE_X = SIMPLE.start.base_x  # own-frame base x of players 0 and 1 (SPEC §7)
 MODES = ("cooperative", "competitive")
 
 
@@ -75,15 +76,16 @@ class RallyConfig:
 class RallyTask:
     """N rallies (or competitive games) of two SIMPLE players.
 
-    The player-specific parts (bodies, serve and start, the per-player observation, the goal
-    a turn-based high level gives the low level) are the hooks below; ``HumanLikeRallyTask``
-    overrides them for the HUMAN-LIKE player, the rules stay the same."""
+    What differs between player kinds comes from ``spec`` (``rallysim.players``): sizes, the
+    goal, the observation; the bodies and the serve are the hooks below, which
+    ``HumanLikeRallyTask`` overrides for the HUMAN-LIKE player; the rules stay the same."""
 
-    player = "simple"
-    obs_size = RALLY_OBS_SIZE
-    action_size = 3
-    goal_size = 1  # the landing depth (m) of the turn-based view
-    default_goal: float | tuple[float, ...] = 4.0  # one goal, in its own shape (scalar: size 1)
+    spec: PlayerSpec = SIMPLE
+    player = spec.name
+    obs_size = spec.rally_obs.size
+    action_size = spec.action.size
+    goal_size = spec.goal.size
+    default_goal: float | tuple[float, ...] = spec.goal.default  # one goal, in its own shape
 
     def __init__(self, num_rallies: int, config: RallyConfig | None = None,
                  seed: int | None = None) -> None:
@@ -126,7 +128,7 @@ class RallyTask:
 
     def _player_observations(self) -> np.ndarray:
         """(N, 2, obs_size - 4) what each player observes of itself and the shuttle."""
-        return player_observations(self.game)
+        return self.spec.observe(self.game)
 
     def _opponent_position(self) -> np.ndarray:
         """(N, 2, 3) the opponent's base in each player's own frame."""
@@ -136,19 +138,11 @@ class RallyTask:
         opp[..., 2] = g.bodies.base_z
         return opp
 
-    @staticmethod
-    def resolve_low_level(low_level: Any, seed: int | None = None) -> Any:
-        """The turn-based view's low level from a name or callable (``turn_task``'s)."""
-        from rallysim.envs.turn_task import resolve_low_level
-
-        return resolve_low_level(low_level, seed)
-
-    @staticmethod
-    def clip_goals(goals: np.ndarray) -> np.ndarray:
-        """The turn-based view's goals as finite depths clipped to [2, 6] m."""
-        from rallysim.envs.simple_obs import TARGET_DEPTH_RANGE
-
-        return np.clip(_finite_goals(goals), *TARGET_DEPTH_RANGE)
+    @classmethod
+    def clip_goals(cls, goals: np.ndarray) -> np.ndarray:
+        """The turn-based view's goals as finite values clipped into the goal range (SIMPLE:
+        depths in [2, 6] m); NaN or inf raise ``ValueError``."""
+        return cls.spec.goal.clip(goals)
 
     # -- views ----------------------------------------------------------------------------------
     def observe(self) -> np.ndarray:
@@ -227,9 +221,3 @@ class RallyTask:
         lo = self.score[envs].min(axis=1)
         return ((hi >= cfg.points_to_win) & (hi - lo >= cfg.win_by)) | (hi >= cfg.max_points)
 
-
-def _finite_goals(goals: np.ndarray) -> np.ndarray:
-    g = np.asarray(goals, dtype=np.float64)
-    if not np.all(np.isfinite(g)):
-        raise ValueError(f"goals must be finite, got {goals!r}")
-    return g

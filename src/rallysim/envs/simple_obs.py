@@ -19,23 +19,20 @@ from __future__ import annotations
 import numpy as np
 
 from rallysim.core.game import Game
+from rallysim.core.layout import Layout
 
 POSITION_CENTRE = np.array([0.0, 0.0, 6.0])
 POSITION_SCALE = np.array([10.0, 5.0, 6.0])
 FACE_SPEED_SCALE = 8.0
 SHUTTLE_SPEED_SCALE = 30.0
-PLAYER_OBS_SIZE = 16
+PLAYER_OBS = Layout((("base_position", 3), ("arm_quaternion", 4), ("face_velocity", 3),
+                     ("shuttle_position", 3), ("shuttle_velocity", 3)))
+PLAYER_OBS_SIZE = PLAYER_OBS.size  # 16
 TARGET_DEPTH_RANGE = (2.0, 6.0)  # SPEC §6/§8: goals are landing depths beyond the net
 
 
 def normalise_position(p: np.ndarray) -> np.ndarray:
     return (p - POSITION_CENTRE) / POSITION_SCALE
-
-
-def depth_from_action(action: np.ndarray) -> np.ndarray:
-    """A high level's action a in [-1, 1] (clipped) -> the goal depth 4 + 2a metres (M,), the
-    original's mapping."""
-    return 4.0 + 2.0 * np.clip(np.asarray(action).reshape(-1), -1.0, 1.0)
 
 
 def normalise_depth(depth: np.ndarray) -> np.ndarray:

@@ -11,7 +11,7 @@ action differs.
 
 ## Action space: ``Box(-1, 1, (1,), float32)``
 The turn player's goal, a landing depth beyond the net, is ``4 + 2 a`` metres (a = -1: 2 m,
-a = 0: 4 m, a = 1: 6 m): ``rallysim.envs.simple_obs.depth_from_action``, the mapping the
+a = 0: 4 m, a = 1: 6 m): ``rallysim.players.SIMPLE.goal.from_action``, the mapping the
 trainers (SB3's ``RescaleAction`` in ``rallysim.train.stages``, RLlib's ``rallysim_high``) and
 the exported high-level policies already use, so a network trained there drives v1 directly.
 The depth is computed in float64 from the (clipped) action, so action ``a`` plays exactly the
@@ -49,10 +49,10 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 
-from rallysim.envs.simple_obs import depth_from_action
 from rallysim.envs.simple_rally_v0 import SimpleRallyTurnEnv, SimpleRallyTurnVectorEnv
-from rallysim.envs.turn_task import LowLevel
 from rallysim.envs.validation import real_array, validate_actions
+from rallysim.players import SIMPLE
+from rallysim.policies.types import LowLevel
 
 __all__ = ["SimpleRallyTurnV1Env", "SimpleRallyTurnV1VectorEnv", "action_space",
            "checked_actions", "goals_from_actions"]
@@ -77,7 +77,7 @@ def goals_from_actions(actions: Any, shape: tuple[int, ...]) -> np.ndarray:
     """Actions of ``shape`` -> goal depths 4 + 2 clip(a, -1, 1) metres, float64, of ``shape``."""
     # float64 before the mapping (checked_actions): 4 + 2a is then exact for a float32 a, so v1
     # given a and v0 given 4 + 2a play the same episode bit for bit
-    return depth_from_action(checked_actions(actions, shape)).reshape(shape)
+    return SIMPLE.goal.from_action(checked_actions(actions, shape)).reshape(shape)
 
 
 class SimpleRallyTurnV1VectorEnv(SimpleRallyTurnVectorEnv):

@@ -85,7 +85,7 @@ from pettingzoo.utils.wrappers import OrderEnforcingWrapper
 from rallysim.envs.rally_task import RallyConfig, RallyTask
 from rallysim.envs.rendering import RENDER_MODES, EnvView
 from rallysim.envs.simple_obs import TARGET_DEPTH_RANGE
-from rallysim.envs.turn_task import LowLevel, TurnTask
+from rallysim.envs.turn_task import TurnTask
 from rallysim.envs.validation import (
     positive_int,
     validate_actions,
@@ -93,6 +93,7 @@ from rallysim.envs.validation import (
     validate_seed,
 )
 from rallysim.envs.vector_base import NEXT_STEP, NativeVectorEnv
+from rallysim.policies.types import LowLevel
 
 AGENTS = ("player_0", "player_1")
 ACTION_SIZE = 3

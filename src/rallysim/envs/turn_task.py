@@ -10,48 +10,23 @@ decisions (for gamma^k discounting). Rallies of a batch that reach their next tu
 
 from __future__ import annotations
 
-from collections.abc import Callable
-
 import numpy as np
 
 from rallysim.envs.rally_task import RallyConfig, RallyTask
-
-LowLevel = Callable[[np.ndarray, np.ndarray], np.ndarray]
-DEFAULT_GOAL = RallyTask.default_goal
-
-
-def resolve_low_level(low_level: LowLevel | str, seed: int | None = None) -> LowLevel:
-    """A batched ``(observations (M, 20), goals (M,)) -> actions (M, 3)`` callable.
-
-    Strings name the shipped ones: ``"scripted"`` (``ScriptedController``) and ``"random"``."""
-    if callable(low_level):
-        return low_level
-    if low_level == "scripted":
-        from rallysim.policies import ScriptedController
-
-        return ScriptedController()
-    if low_level == "random":
-        from rallysim.policies.callables import UniformRandom
-
-        return UniformRandom(3, seed)
-    raise ValueError(f"unknown low_level {low_level!r}; pass a callable "
-                     "(observations, goals) -> actions, or 'scripted' or 'random'")
-
-
-def clip_goals(goals: np.ndarray) -> np.ndarray:
-    """Goals as finite depths clipped to [2, 6] m; NaN or inf raise ``ValueError``."""
-    return RallyTask.clip_goals(goals)
+from rallysim.policies.registry import resolve
+from rallysim.policies.types import LowLevel
 
 
 class TurnTask:
     """N rallies advanced turn by turn. ``rally`` is the rally core's class (``RallyTask`` for
-    SIMPLE players); its ``goal_size`` says what one goal holds."""
+    SIMPLE players); its ``goal_size`` says what one goal holds. ``low_level`` is a callable
+    or a name of ``rallysim.policies.registry`` (role ``rally_low``)."""
 
     def __init__(self, num_rallies: int, low_level: LowLevel | str = "scripted",
                  config: RallyConfig | None = None, seed: int | None = None,
                  rally: type[RallyTask] = RallyTask) -> None:
         self.rally = rally(num_rallies, config, seed)
-        self.low_level = rally.resolve_low_level(low_level, seed)
+        self.low_level = resolve(low_level, "rally_low", rally.spec, seed)
         self.n = num_rallies
         # (N, 2) depths for SIMPLE players; (N, 2, goal_size) where a goal holds more
         self.goals = np.empty((num_rallies, 2, *np.shape(rally.default_goal)))

@@ -7,18 +7,16 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from rallysim.envs.rally_task import RallyConfig
-from rallysim.envs.turn_task import LowLevel
 from rallysim.eval.rally_eval import (
     PAPER_CAP,
-    HighLevel,
-    Policy,
     rally_lengths_direct,
     rally_lengths_turns,
     random_goals,
     rules_for_cap,
 )
 from rallysim.eval.stats import summarise_rallies
-from rallysim.policies.resolve import high_level_policy, mono_policy, rally_low_level
+from rallysim.policies.registry import resolve
+from rallysim.policies.types import HighLevel, LowLevel, Policy
 
 if TYPE_CHECKING:
     from rallysim.train.progress import Heartbeat
@@ -58,13 +56,14 @@ def evaluate_methods(low: str = "pretrained", high: str = "pretrained", mono: st
     if rallies < 1 or seeds < 1:
         raise ValueError("rallies and seeds must be >= 1")
     rules = rules_for_cap(cap, shuttle)
-    low_level = rally_low_level(low)
+    low_level = resolve(low, "rally_low")
     lengths: dict[str, list[np.ndarray]] = {m: [] for m in METHODS}
-    mono_act = mono_policy(mono)
+    mono_act = resolve(mono, "mono")
     for s in range(seeds):
         seed = 2_000_000 + 1000 * s
-        played = play_methods(high_level_policy(high, seed), low_level, mono_act, rallies, seed,
-                              rules, beat, f"seed {s} ")
+        high_level = resolve(high, "high", "simple", seed)
+        played = play_methods(high_level, low_level, mono_act, rallies, seed, rules, beat,
+                              f"seed {s} ")
         for method, values in played.items():
             lengths[method].append(values)
     return {

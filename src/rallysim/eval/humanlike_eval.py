@@ -9,14 +9,13 @@ and a mean rally of at least 10 hits.
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 
 from rallysim.envs.humanlike_return_v0 import HumanLikeReturnVectorEnv
+from rallysim.policies.types import HighLevel, Policy
 
-Policy = Callable[[np.ndarray], np.ndarray]  # (N, 85) observations -> (N, 15) actions
 TARGETS = {"hit_rate": 0.9, "mean_angle_error": 5.0, "mean_abs_speed_error": 0.1,
            "mean_rally": 10.0}
 
@@ -48,18 +47,13 @@ def evaluate_humanlike(policy: Policy, episodes: int = 256, seed: int = 12345,
     }
 
 
-def rally_goals(spec: str, seed: int = 0) -> Policy:
+def rally_goals(spec: str, seed: int = 0) -> HighLevel:
     """The 3-D rally's high level: ``centre`` (every goal (0, 0, 0): 3 m/s at 45 deg straight
     over the net), ``random`` (goals ~ U[-1, 1]^3), ``pretrained`` (the shipped one, trained
     over the shipped low level) or the path prefix of a trained policy."""
-    if spec == "centre":
-        return lambda obs: np.zeros((len(obs), 3))
-    if spec == "random":
-        rng = np.random.default_rng(seed)
-        return lambda obs: rng.uniform(-1.0, 1.0, (len(obs), 3))
-    from rallysim.policies.resolve import load_network
+    from rallysim.policies.registry import resolve
 
-    return load_network(spec, "high", "humanlike")
+    return resolve("fixed:0,0,0" if spec == "centre" else spec, "high", "humanlike", seed)
 
 
 def evaluate_humanlike_player(low: str = "pretrained", high: str = "pretrained",
@@ -67,17 +61,17 @@ def evaluate_humanlike_player(low: str = "pretrained", high: str = "pretrained",
                               shuttle: str = "paper") -> dict[str, Any]:
     """A HUMAN-LIKE low level (``scripted``, ``pretrained`` or a path prefix) on ``episodes``
     serves, and the 3-D rally it plays for ``high``'s goals (``rallies`` x ``seeds``)."""
-    from rallysim.envs.humanlike_rally_task import HumanLikeRallyTask, goal_conditioned
+    from rallysim.envs.humanlike_rally_task import HumanLikeRallyTask
     from rallysim.envs.rally_task import RallyConfig
     from rallysim.eval.rally_eval import rally_lengths_turns
     from rallysim.eval.stats import summarise_rallies
-    from rallysim.policies.resolve import humanlike_low_level
+    from rallysim.policies.registry import goal_conditioned, resolve
 
     if min(episodes, rallies, seeds) < 1:
         raise ValueError("episodes, rallies and seeds must be >= 1")
-    policy = humanlike_low_level(low)  # loaded once: the serves' and the rally's player
+    policy = resolve(low, "low", "humanlike")  # loaded once: the serves' and the rally's player
     returns = evaluate_humanlike(policy, episodes, shuttle=shuttle)
-    low_level = goal_conditioned(policy)
+    low_level = goal_conditioned(policy, "humanlike")
     groups = [rally_lengths_turns(rally_goals(high, 1000 * s), low_level, rallies, 1000 * s,
                                   RallyConfig(shuttle=shuttle), rally=HumanLikeRallyTask)
               for s in range(seeds)]

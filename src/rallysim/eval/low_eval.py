@@ -7,14 +7,12 @@ with one seed are paired comparisons.
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import asdict, dataclass
 
 import numpy as np
 
 from rallysim.envs.simple_return_v0 import SimpleReturnVectorEnv
-
-Policy = Callable[[np.ndarray], np.ndarray]  # (N, 17) observations -> (N, 3) actions
+from rallysim.policies.types import Policy
 
 
 @dataclass(frozen=True)

@@ -10,14 +10,12 @@ Three ways to play, matching the paper's Table VII rows:
 
 from __future__ import annotations
 
-from collections.abc import Callable
-
 import numpy as np
 
 from rallysim.envs.rally_task import RALLY_OBS_SIZE, RallyConfig, RallyTask
-from rallysim.envs.simple_obs import PLAYER_OBS_SIZE, TARGET_DEPTH_RANGE, normalise_depth
-from rallysim.envs.turn_task import LowLevel, TurnTask
-from rallysim.policies.callables import GoalConditioned, UniformRandom
+from rallysim.envs.turn_task import TurnTask
+from rallysim.policies.registry import resolve
+from rallysim.policies.types import HighLevel, LowLevel, Policy
 
 PAPER_CAP = RallyConfig.max_hits  # hits: the paper's rally cap (SPEC §7)
 MAX_CAP = 100_000
@@ -43,27 +41,9 @@ def _refuse_stalls(truncated: np.ndarray, length: np.ndarray, config: RallyConfi
                            f"the cap of {config.max_hits}; raise RallyConfig.max_decisions")
 
 
-HighLevel = Callable[[np.ndarray], np.ndarray]  # (M, 20) observations -> (M,) goals in metres
-Policy = Callable[[np.ndarray], np.ndarray]  # (M, obs) -> (M, 3) actions
-
-
 def random_goals(seed: int) -> HighLevel:
     """The "Random High-level" baseline: goals ~ U[2, 6] m at every turn."""
-    return UniformRandom(None, seed, *TARGET_DEPTH_RANGE)
-
-
-def goal_conditioned(low_policy: Policy) -> LowLevel:
-    """A low-level policy of ``RallySim/SimpleReturn-v0`` (17 inputs: the player's 16 values and
-    the scaled goal) as the rally's ``(observations, goals) -> actions`` controller."""
-    return GoalConditioned(low_policy, low_level_observations)
-
-
-def low_level_observations(obs: np.ndarray, goals: np.ndarray) -> np.ndarray:
-    """Rally observations (M, 20) and goal depths (M,) -> the return task's (M, 17)."""
-    x = np.empty((len(obs), PLAYER_OBS_SIZE + 1), np.float32)
-    x[:, :PLAYER_OBS_SIZE] = obs[:, :PLAYER_OBS_SIZE]
-    x[:, PLAYER_OBS_SIZE] = normalise_depth(goals)
-    return x
+    return resolve("random", "high", "simple", seed)
 
 
 def rally_lengths_turns(high_level: HighLevel, low_level: LowLevel | str, n_rallies: int,

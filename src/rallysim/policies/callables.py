@@ -28,13 +28,14 @@ class UniformRandom:
 
 
 class FixedGoal:
-    """The same goal for every observation."""
+    """The same goal (a number, or an array for a goal of several values) for every
+    observation."""
 
-    def __init__(self, goal: float) -> None:
+    def __init__(self, goal: float | np.ndarray) -> None:
         self.goal = goal
 
     def __call__(self, obs: np.ndarray) -> np.ndarray:
-        return np.full(len(obs), self.goal)
+        return np.full((len(obs), *np.shape(self.goal)), self.goal)
 
 
 class Composed:

@@ -15,12 +15,14 @@ from rallysim.core.bodies import SimpleBodies, player_geometry
 from rallysim.core.game import PHYSICS_DT, PHYSICS_STEPS_PER_DECISION
 from rallysim.core.shuttle import GRAVITY, PaperShuttle
 from rallysim.envs.simple_obs import (
+    PLAYER_OBS,
     POSITION_CENTRE,
     POSITION_SCALE,
     SHUTTLE_SPEED_SCALE,
 )
 
 DECISION = PHYSICS_DT * PHYSICS_STEPS_PER_DECISION
+BASE_X = PLAYER_OBS["base_position"].start
 
 
 class ScriptedController:
@@ -82,11 +84,11 @@ class ScriptedController:
     def __call__(self, observations: np.ndarray, goals: np.ndarray) -> np.ndarray:
         obs = np.asarray(observations, dtype=np.float64)
         n = len(obs)
-        base_x = obs[:, 0] * POSITION_SCALE[0] + POSITION_CENTRE[0]
-        qw, qy = obs[:, 3], obs[:, 5]
-        theta = 2.0 * np.arctan2(qy, qw)
-        pos = obs[:, 10:13] * POSITION_SCALE + POSITION_CENTRE
-        vel = obs[:, 13:16] * SHUTTLE_SPEED_SCALE
+        base_x = obs[:, BASE_X] * POSITION_SCALE[0] + POSITION_CENTRE[0]
+        quaternion = obs[:, PLAYER_OBS["arm_quaternion"]]  # a turn about y: (w, 0, y, 0)
+        theta = 2.0 * np.arctan2(quaternion[:, 2], quaternion[:, 0])
+        pos = obs[:, PLAYER_OBS["shuttle_position"]] * POSITION_SCALE + POSITION_CENTRE
+        vel = obs[:, PLAYER_OBS["shuttle_velocity"]] * SHUTTLE_SPEED_SCALE
 
         x, z = self.predict(pos, vel)
         t = self._k * PHYSICS_DT
@@ -129,8 +131,9 @@ class ScriptedController:
         return np.clip(actions, -1.0, 1.0)
 
     def act_return(self, observations: np.ndarray) -> np.ndarray:
-        """Act in ``RallySim/SimpleReturn-v0`` (N, 17) observations: the goal is index 16."""
+        """Act in ``RallySim/SimpleReturn-v0`` (N, 17) observations: the scaled goal depth
+        follows the player's observation."""
         obs = np.asarray(observations)
-        goals = obs[:, 16] * 2.0 + 4.0
+        goals = obs[:, PLAYER_OBS.size] * 2.0 + 4.0
         return self(obs, goals)
 

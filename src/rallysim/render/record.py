@@ -10,8 +10,9 @@ import numpy as np
 from rallysim.core.game import PHYSICS_DT, PHYSICS_STEPS_PER_DECISION
 from rallysim.envs.rally_task import RALLY_OBS_SIZE, RallyConfig, RallyTask
 from rallysim.envs.simple_return_v0 import SimpleReturnEnv
-from rallysim.envs.turn_task import LowLevel, resolve_low_level
+from rallysim.policies.registry import resolve
 from rallysim.policies.resolve import low_level_policy
+from rallysim.policies.types import LowLevel
 from rallysim.render.scene import SceneRenderer
 
 POLICIES = ("scripted", "random")
@@ -100,7 +101,7 @@ def record_rally(n_rallies: int = 1, high_level: HighLevel | None = None,
         raise ValueError(f"n_rallies must be >= 1, got {n_rallies}")
     rng = np.random.default_rng(seed)
     choose = high_level or (lambda obs: rng.uniform(2.0, 6.0, len(obs)))
-    low = resolve_low_level(low_level, seed)
+    low = resolve(low_level, "rally_low", "simple", seed)
     own = renderer is None
     view = SceneRenderer(2, width, height, camera) if renderer is None else renderer
     frames: list[np.ndarray] = []

@@ -10,9 +10,10 @@
   players act every decision.
 
 Both players of a rally map to one RLModule, ``SHARED_MODULE``. The high stage's action is
-a in [-1, 1] and the goal 4 + 2a metres, as in the SB3 path, so exported networks are
-interchangeable. Env settings travel in RLlib's ``env_config`` as plain values (a frozen low
-level by name or path prefix), so an env runner on any node rebuilds the same env.
+a in [-1, 1] and the goal 4 + 2a metres (``SIMPLE.goal.from_action``), as in the SB3 path, so
+exported networks are interchangeable. Env settings travel in RLlib's ``env_config`` as plain
+values (a frozen low level by name or path prefix), so an env runner on any node rebuilds the
+same env.
 """
 
 from __future__ import annotations
@@ -25,6 +26,7 @@ from ray.rllib.env.multi_agent_env import MultiAgentEnv
 from ray.tune.registry import register_env
 
 from rallysim.envs.simple_rally_v0 import AGENTS, parallel_env, turn_env
+from rallysim.players import SIMPLE
 
 SHARED_MODULE = "shared"
 ENV_NAMES = {"low": "rallysim_low", "high": "rallysim_high", "mono": "rallysim_mono"}
@@ -97,10 +99,10 @@ class TurnRallyMultiAgentEnv(MultiAgentEnv):
 
     def __init__(self, env_config: dict[str, Any] | None = None) -> None:
         super().__init__()
-        from rallysim.policies.resolve import rally_low_level
+        from rallysim.policies.registry import resolve
 
         env_config = dict(env_config or {})
-        low = rally_low_level(str(env_config.get("low_policy", "scripted")))
+        low = resolve(str(env_config.get("low_policy", "scripted")), "rally_low")
         self.aec = turn_env(low_level=low, **_rally_kwargs(env_config))
         self.agents = self.possible_agents = list(AGENTS)
         self.observation_spaces = {a: self.aec.observation_space(a) for a in AGENTS}
@@ -114,9 +116,7 @@ class TurnRallyMultiAgentEnv(MultiAgentEnv):
 
     def step(self, action_dict: dict[str, Any]):
         agent = self.aec.agent_selection
-        # the original mapping, as the SB3 path's RescaleAction: goal = 4 + 2 clip(a, -1, 1)
-        a = np.clip(np.asarray(action_dict[agent], np.float64).reshape(1), -1.0, 1.0)
-        self.aec.step(4.0 + 2.0 * a)
+        self.aec.step(SIMPLE.goal.from_action(np.asarray(action_dict[agent], np.float64)))
         rewards = {a: float(self.aec.rewards[a]) for a in AGENTS}
         terminated = any(self.aec.terminations.values())
         truncated = any(self.aec.truncations.values())
