@@ -59,10 +59,23 @@ def test_goal_clip_and_sample_stay_in_range():
     assert HUMANLIKE.goal.from_action(np.array([[2.0, 0.1, -5.0]])).tolist() == [[1.0, 0.1, -1.0]]
 
 
+def test_a_player_kind_is_one_module_defining_player(tmp_path, monkeypatch):
+    import rallysim.players as players
+
+    (tmp_path / "robot.py").write_text(
+        "import dataclasses\nfrom rallysim.players.simple import SIMPLE\n"
+        "PLAYER = dataclasses.replace(SIMPLE, name='robot')\n")
+    monkeypatch.setattr(players, "__path__", [*players.__path__, str(tmp_path)])
+    monkeypatch.syspath_prepend(str(tmp_path))
+    found = players._discover()
+    assert list(found) == ["humanlike", "robot", "simple"]
+    assert found["robot"].goal is SIMPLE.goal
+
+
 def test_get_player_names_the_valid_kinds():
     assert get_player("humanlike") is HUMANLIKE and get_player(SIMPLE) is SIMPLE
     assert set(PLAYERS) == {"simple", "humanlike"}
-    with pytest.raises(ValueError, match="'simple', 'humanlike'"):
+    with pytest.raises(ValueError, match="'humanlike', 'simple'"):
         get_player("robot")
 
 

@@ -1,14 +1,28 @@
 """Player kinds: ``PLAYERS[name]`` is the frozen ``PlayerSpec`` of each (see ``spec``).
 
-A new player kind is one new module here defining its spec, and one entry below."""
+Each module of this package that defines ``PLAYER`` (a ``PlayerSpec``) is a player kind, so a
+new kind is one new module here (with its bodies in ``rallysim.core`` and its MJCF asset).
+"""
 
 from __future__ import annotations
 
-from rallysim.players.humanlike import HUMANLIKE
-from rallysim.players.simple import SIMPLE
+import importlib
+import pkgutil
+
 from rallysim.players.spec import GoalSpec, Layout, PlayerSpec, StartPose
 
-PLAYERS: dict[str, PlayerSpec] = {"simple": SIMPLE, "humanlike": HUMANLIKE}
+
+def _discover() -> dict[str, PlayerSpec]:
+    found = {}
+    for info in sorted(pkgutil.iter_modules(__path__), key=lambda m: m.name):
+        spec = getattr(importlib.import_module(f"{__name__}.{info.name}"), "PLAYER", None)
+        if isinstance(spec, PlayerSpec):
+            found[spec.name] = spec
+    return found
+
+
+PLAYERS: dict[str, PlayerSpec] = _discover()
+SIMPLE, HUMANLIKE = PLAYERS["simple"], PLAYERS["humanlike"]
 
 
 def get_player(player: str | PlayerSpec) -> PlayerSpec:

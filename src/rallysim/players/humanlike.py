@@ -74,7 +74,7 @@ def scripted_low() -> GoalConditioned:
     return GoalConditioned(AimedSwing(), low_observations)
 
 
-HUMANLIKE = PlayerSpec(
+PLAYER = HUMANLIKE = PlayerSpec(
     name="humanlike", asset="humanlike_player.xml", make_bodies=make_bodies,
     obs=OBS, low_obs=OBS.extended(("target_velocity", 3)),
     rally_obs=OBS.extended(("opponent_position", 3), ("my_turn", 1)),

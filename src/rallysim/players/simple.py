@@ -38,7 +38,7 @@ def scripted_task_low() -> Policy:
     return ScriptedController().act_return
 
 
-SIMPLE = PlayerSpec(
+PLAYER = SIMPLE = PlayerSpec(
     name="simple", asset="simple_player.xml", make_bodies=make_bodies,
     obs=OBS, low_obs=OBS.extended(("goal_depth", 1)),
     rally_obs=OBS.extended(("opponent_position", 3), ("my_turn", 1)),
