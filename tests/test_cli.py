@@ -1,12 +1,26 @@
-"""The command line: demo numbers, render outputs, the keyboard player of `play`."""
+"""The command line: demo numbers, render outputs, the keyboard players of `play`."""
 
 from __future__ import annotations
 
+import contextlib
+
+import mujoco
 import numpy as np
 import pytest
 
 from rallysim.cli import main
-from rallysim.render.play import KEY_LEFT, KEY_RIGHT, KEY_SPACE, KEY_UP, KeyboardPlayer
+from rallysim.envs.turn_loop import TurnLoop
+from rallysim.render.keyboard import (
+    KEY_DOWN,
+    KEY_F,
+    KEY_G,
+    KEY_LEFT,
+    KEY_RIGHT,
+    KEY_SPACE,
+    KEY_UP,
+    KeyboardGoals,
+    KeyboardPlayer,
+)
 
 
 def test_demo_prints_scripted_numbers(capsys):
@@ -14,6 +28,31 @@ def test_demo_prints_scripted_numbers(capsys):
     out = capsys.readouterr().out
     hit = float(out.split("hit rate")[1].split()[0])
     assert hit > 0.9
+
+
+def number(out: str, label: str) -> float:
+    return float(out.split(label)[1].split()[0])
+
+
+@pytest.mark.parametrize("policy, hit, reward, angle", [
+    ("scripted", 1.0, 1.0, 0.0),  # AimedSwing: the target velocity, to the numerics
+    ("pretrained", 1.0, 0.874, 4.54),  # the shipped policy on these 64 seeded serves (32 at
+    # a time)
+    # flailing joints: one lucky touch in 64 (its racket far off the target: reward 0.5)
+    ("random", 0.016, 0.008, 53.37),
+])
+def test_demo_humanlike_prints_the_low_level_tasks_numbers(policy, hit, reward, angle, capsys):
+    argv = ["demo", "--player", "humanlike", "--episodes", "64", "--envs", "24", "--policy",
+            policy]
+    assert main(argv) == 0
+    out = capsys.readouterr().out
+    assert out.startswith(f"RallySim/HumanLikeReturn-v0, shuttle='paper', policy='{policy}', "
+                          "64 episodes")
+    assert number(out, "hit rate") == hit
+    # the network's float32 sums round a little differently in batches of another size
+    assert number(out, "mean episode reward") == pytest.approx(reward, abs=0.002)
+    assert number(out, "mean angle error") == pytest.approx(angle, abs=0.05, nan_ok=True)
+    assert "with 24 environments" in out  # 64 episodes in rounds of 24, 24 and 16
 
 
 def test_keyboard_player_actions():
@@ -47,12 +86,12 @@ class FakeViewer:
         pass
 
 
-def test_play_moves_the_human_player_by_keyboard():
+def test_play_moves_the_human_player_by_keyboard(monkeypatch):
     from rallysim.policies.registry import resolve
-    from rallysim.render import play as play_module
+    from rallysim.render.play import play
 
     moves = []
-    orig_step = play_module.RallyTask.step
+    orig_step = TurnLoop.step
 
     def spy(self, actions, active=None):
         moves.append(actions[0, 0].copy())
@@ -64,14 +103,79 @@ def test_play_moves_the_human_player_by_keyboard():
         viewer.press = key_callback
         return viewer
 
-    play_module.RallyTask.step = spy
-    try:
-        play_module.play(resolve("scripted", "rally_low"), lambda o: np.full(len(o), 4.0), human=0,
-                         viewer_factory=factory, realtime=False)
-    finally:
-        play_module.RallyTask.step = orig_step
+    monkeypatch.setattr(TurnLoop, "step", spy)  # play's decisions are the turn loop's
+    play(resolve("scripted", "rally_low"), lambda o: np.full(len(o), 4.0), human=0,
+         viewer_factory=factory, realtime=False)
     assert viewer.synced == 5
     assert moves[0][2] == 0.0 and all(m[2] == 1.0 for m in moves[1:])  # walks after the key
+
+
+def test_keyboard_goals():
+    k = KeyboardGoals()
+    assert k.goal().tolist() == [0.0, 0.0, 0.0]  # the centre goal: 3 m/s at 45 deg
+    for key in (KEY_UP, KEY_UP, KEY_LEFT, KEY_G, KEY_F, KEY_F):
+        k.press(key)
+    assert k.goal().tolist() == [0.5, -0.25, 0.25]
+    for _ in range(9):
+        k.press(KEY_DOWN)
+        k.press(KEY_RIGHT)
+    assert k.goal().tolist() == [-1.0, -0.25, -1.0]  # held at the goal's bounds
+    k.press(KEY_SPACE)
+    assert k.goal().tolist() == [0.0, 0.0, 0.0]
+
+
+class SceneViewer(FakeViewer):
+    """A stand-in that also has the viewer's lock and its own scene (``user_scn``)."""
+
+    def __init__(self, keys, n, model):
+        super().__init__(keys, n)
+        self.user_scn = mujoco.MjvScene(model, maxgeom=200)
+
+    def lock(self):
+        return contextlib.nullcontext()
+
+
+def test_play_humanlike_keys_choose_the_players_goal(monkeypatch):
+    """HUMAN-LIKE play: the keys set player 0's goal, which its learned low level gets from the
+    next decision on; the computer's high level never sets it; both goals are drawn."""
+    from rallysim.policies.registry import resolve
+    from rallysim.render.play import play
+
+    low = resolve("pretrained", "rally_low", "humanlike")
+    seen = []  # the goals (2, 3) each decision's low level acted on
+
+    def recording_low(obs, goals):
+        seen.append(goals.copy())
+        return low(obs, goals)
+
+    asked = []
+
+    def high(obs):
+        asked.append(len(obs))
+        return np.full((len(obs), 3), -0.9)
+
+    keys = [KEY_UP, KEY_UP, KEY_LEFT, KEY_G, None, KEY_SPACE]
+    holder = {}
+
+    def factory(model, data, key_callback):
+        viewer = SceneViewer(keys, 8, model)
+        viewer.press = lambda key: key is None or key_callback(key)
+        holder["viewer"] = viewer
+        return viewer
+
+    play(recording_low, high, human=0, viewer_factory=factory, realtime=False,
+         player="humanlike", seed=1)
+    mine = [g[0].tolist() for g in seen]
+    assert len(mine) == 8
+    assert mine[:7] == [[0, 0, 0], [0.25, 0, 0], [0.5, 0, 0], [0.5, 0, 0.25],
+                        [0.5, 0.25, 0.25], [0.5, 0.25, 0.25], [0, 0, 0]]
+    assert all(g[1].tolist() == [0, 0, 0] for g in seen)  # player 1's turn has not come yet
+    assert asked == []  # the serve came to player 0, whose goals are the keyboard's
+    # the goals are drawn in the viewer's own scene: an arrow per player from its racket head
+    scn = holder["viewer"].user_scn
+    arrows = [scn.geoms[i] for i in range(scn.ngeom)
+              if scn.geoms[i].type == mujoco.mjtGeom.mjGEOM_ARROW]
+    assert len(arrows) == 2
 
 
 def test_render_writes_video_gif_and_strip(tmp_path):
@@ -108,3 +212,23 @@ def test_bad_cap_and_seeds_are_one_line_errors(argv, capsys):
     lines = capsys.readouterr().err.splitlines()
     assert len(lines) == 1  # no usage block before the message
     assert lines[0].startswith(f"rallysim {argv[0]}: error: argument {argv[1]}: ")
+
+
+@pytest.mark.parametrize("env, frames", [("rally", 44), ("low", 36)])
+def test_render_humanlike_writes_the_3d_rally_and_return(env, frames, tmp_path, capsys):
+    """--player humanlike with the shipped pretrained levels: seed 3's rally (2 hits in 43
+    decisions, as RallySim/HumanLikeRallyTurn-v0 plays it), or seed 3's episode of
+    RallySim/HumanLikeReturn-v0 (35 decisions); a frame before each decision and the last."""
+    pytest.importorskip("imageio")
+    import imageio.v3 as iio
+
+    from tests.test_env_render import needs_gl  # noqa: F401  (skips without OpenGL)
+
+    code = main(["render", "--player", "humanlike", "--env", env, "--episodes", "1", "--seed",
+                 "3", "--size", "160x96", "--stills", "4", "--out", str(tmp_path)])
+    assert code == 0
+    stem = tmp_path / f"humanlike_{env}_pretrained"
+    mp4 = iio.imread(stem.with_suffix(".mp4"))
+    assert mp4.shape == (frames, 96, 160, 3)
+    assert f"({frames} frames)" in capsys.readouterr().out
+    assert stem.with_name(stem.name + "_strip.png").stat().st_size > 1000

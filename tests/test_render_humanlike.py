@@ -5,6 +5,7 @@ render_mode works. Skipped as a whole only where no OpenGL backend can be create
 from __future__ import annotations
 
 import contextlib
+import itertools
 import warnings
 
 import mujoco
@@ -253,3 +254,66 @@ def test_human_mode_sends_the_arrow_to_the_viewer(monkeypatch):
     env.step(np.zeros(15, np.float32))
     assert viewer.synced == 2 and viewer.user_scn.ngeom == 1  # replaced, not piled up
     env.close()
+
+
+# -- recorded rallies ---------------------------------------------------------------------------
+def player_mask(view: SceneRenderer, player: int) -> np.ndarray:
+    """Pixels where player ``player``'s body is drawn: the frame with it minus the frame with
+    its geoms moved to a hidden geom group."""
+    m = view.model
+    geoms = [g for g in range(m.ngeom) if (m.geom(g).name or "").startswith(f"p{player}_")]
+    groups = m.geom_group[geoms].copy()
+    shown = view.render_current()
+    m.geom_group[geoms] = 5
+    try:
+        hidden = view.render_current()
+    finally:
+        m.geom_group[geoms] = groups
+    return np.any(shown != hidden, axis=2)
+
+
+def test_record_rally_draws_the_seeded_3d_rally(monkeypatch):
+    """``rallysim render --player humanlike``'s recorder with the shipped pretrained levels:
+    the rally ``RallySim/HumanLikeRallyTurn-v0`` plays reset with the same seed (seed 6: 16
+    hits in 210 decisions), a frame before each decision and one at the end, both players
+    drawn where the game has them, and the goals' arrows."""
+    from rallysim.envs.humanlike_rally_v0 import HumanLikeRallyTurnEnv
+    from rallysim.envs.turn_loop import TurnLoop
+    from rallysim.eval.humanlike_eval import rally_goals
+    from rallysim.render import record_rally
+
+    env = HumanLikeRallyTurnEnv(low_level="pretrained")
+    obs, _ = env.reset(seed=6)
+    high = rally_goals("pretrained")
+    done, decisions = False, 0
+    while not done:
+        obs, _, term, trunc, info = env.step(high(obs[None])[0])
+        decisions, done = decisions + info["decisions"], term or trunc
+    assert (info["rally_length"], decisions) == (16, 210)
+
+    lengths = []
+    real = TurnLoop.step
+
+    def step(loop, actions, active=None):
+        out = real(loop, actions, active)
+        lengths.append(int(out[3]["rally_length"][0]))
+        return out
+
+    monkeypatch.setattr(TurnLoop, "step", step)
+    with SceneRenderer(2, 320, 180, player="humanlike") as view:
+        frames = record_rally(1, rally_goals("pretrained"), "pretrained", 6, renderer=view,
+                              player="humanlike")
+        assert view.camera == "three_quarter_close"
+        chest = [view.project(view.data.body(f"p{p}_chest").xpos) for p in range(2)]
+        last = view.render_current()  # the state the recorder left: the rally's end
+        bodies = [player_mask(view, p) for p in range(2)]
+    assert len(frames) == decisions + 1 == len(lengths) + 1 and lengths[-1] == 16
+    assert all(f.shape == (180, 320, 3) and f.dtype == np.uint8 for f in frames)
+    assert np.array_equal(frames[-1][50:], last[50:])  # below the HUD, the same picture
+    # both bodies drawn where the game has them: around the projection of the chest (the
+    # arm and racket reach out to one side, the far player is smaller)
+    assert bodies[0].sum() >= 200 and bodies[1].sum() >= 100
+    for p in range(2):
+        assert np.abs(centroid(bodies[p]) - chest[p]).max() < 10, p
+    assert sum(red(f).sum() > 5 for f in frames) > 0.9 * len(frames)  # the goals' arrows
+    assert all(np.any(a != b) for a, b in itertools.pairwise(frames))  # every decision moves

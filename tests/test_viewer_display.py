@@ -37,7 +37,7 @@ if importlib.util.find_spec("PIL") is None:
 needs_x = pytest.mark.skipif(bool(_MISSING), reason=f"needs {', '.join(_MISSING)}")
 
 # 16:10, the window shape the viewer's camera is fitted to before the window exists, so the
-# picture is exactly the "side" camera's (see rallysim.render.play.launch_viewer). MuJoCo
+# picture is exactly the "side" camera's (see rallysim.render.viewer.launch_viewer). MuJoCo
 # opens its window at two thirds of the screen: 640x400 here.
 SCREEN = (960, 600)
 WINDOW = (640, 400)
@@ -246,6 +246,37 @@ def test_play_window_shows_court_players_and_shuttle(display: str, tmp_path: Pat
         spread = np.ptp(np.array(shuttle_at), axis=0).max()
         assert spread > 10, "the shuttle did not move: the window is not following the rally"
         finish(play, PLAY_SECONDS + 20)  # closed by itself after --seconds
+    finally:
+        stop(play)
+
+
+@needs_x
+def test_play_humanlike_window_shows_both_3d_players(display: str, tmp_path: Path) -> None:
+    """``rallysim play --player humanlike``: the 3-D rally in the window, from the HUMAN-LIKE
+    view (``"three_quarter_close"``): the court, player 0 (blue shirt) in its half and player
+    1 (orange shirt) in the other, the target arrows; it ends by itself after --seconds."""
+    from rallysim.render.scene import SceneRenderer
+
+    env = x_env(display)
+    seconds = 6.0
+    command = [sys.executable, "-m", "rallysim.cli", "play", "--player", "humanlike",
+               "--human", "0", "--seed", "1", "--seconds", str(seconds)]
+    play = subprocess.Popen(command, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True)
+    try:
+        wait_for_window(display, play, tmp_path / "shot.png")
+        time.sleep(SHOT_GAP)
+        img = window_of(screenshot(display, tmp_path / "humanlike.png"))
+        project = SceneRenderer(2, *WINDOW, "three_quarter_close", player="humanlike",
+                                offscreen=False).project
+        assert green(img).mean() > 0.15, "no court"
+        mine = box_region(project, (-6.5, -2.8, 0.3), (-0.5, 2.8, 1.8))
+        theirs = box_region(project, (0.5, -2.8, 0.3), (6.5, 2.8, 1.8))
+        assert blue(img[mine]).sum() >= 100, "player 0 (blue) not in its half"
+        assert orange(img[theirs]).sum() >= 40, "player 1 (orange) not in its half"
+        r, g, b = img[..., 0], img[..., 1], img[..., 2]
+        assert ((r > 150) & (g < 40) & (b < 40)).sum() >= 10, "no target arrow"
+        finish(play, seconds + 20)
     finally:
         stop(play)
 

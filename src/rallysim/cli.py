@@ -48,7 +48,10 @@ class _Parser(argparse.ArgumentParser):
 
 
 def _demo(args: argparse.Namespace) -> int:
-    """Play the low-level task with the scripted controller and print what happened."""
+    """Play the low-level task (SIMPLE or HUMAN-LIKE) with the scripted controller (or
+    ``--policy``) and print what happened."""
+    if args.player == "humanlike":
+        return _demo_humanlike(args)
     from rallysim.envs.simple_return_v0 import SimpleReturnVectorEnv
     from rallysim.eval.low_eval import evaluate_return
     from rallysim.policies.resolve import low_level_policy
@@ -65,6 +68,39 @@ def _demo(args: argparse.Namespace) -> int:
     print(f"  median landing error  {r.median_error:.3f} m")
     print(f"  speed                 {r.decisions / elapsed:,.0f} decisions/s "
           f"with {args.envs} environments")
+    return 0
+
+
+def _demo_humanlike(args: argparse.Namespace) -> int:
+    """``demo --player humanlike``: ``RallySim/HumanLikeReturn-v0`` in rounds of ``--envs``
+    environments, episode i seeded ``--seed`` + i (as the SIMPLE demo)."""
+    from rallysim.eval.humanlike_eval import evaluate_humanlike
+    from rallysim.policies.registry import resolve
+
+    policy = resolve(args.policy, "low", "humanlike", args.seed)
+    rounds = []
+    start = time.perf_counter()
+    for first in range(0, args.episodes, args.envs):
+        k = min(args.envs, args.episodes - first)
+        rounds.append((k, evaluate_humanlike(policy, k, args.seed + first, args.shuttle)))
+    elapsed = time.perf_counter() - start
+    n = sum(k for k, _ in rounds)
+    hits = [round(r["hit_rate"] * k) for k, r in rounds]  # the rate is hits / k, exactly
+
+    def mean_over_hits(key: str) -> float:
+        total = sum(h * r[key] for h, (_, r) in zip(hits, rounds, strict=True) if h)
+        return total / sum(hits) if sum(hits) else float("nan")
+
+    print(f"RallySim/HumanLikeReturn-v0, shuttle={args.shuttle!r}, policy={args.policy!r}, "
+          f"{n} episodes")
+    print(f"  mean episode reward   {sum(k * r['mean_reward'] for k, r in rounds) / n:.3f}"
+          "  (max 1.0)")
+    print(f"  hit rate              {sum(hits) / n:.3f}")
+    print(f"  mean angle error      {mean_over_hits('mean_angle_error'):.2f} deg  "
+          "(racket velocity at the hit vs the target)")
+    print(f"  mean |speed error|    {mean_over_hits('mean_abs_speed_error'):.3f}")
+    print(f"  speed                 {n / elapsed:,.1f} episodes/s "
+          f"with {min(args.envs, n)} environments")
     return 0
 
 
@@ -205,36 +241,58 @@ def _require(path: Path, want: str) -> None:
         raise UsageError(problem)
 
 
+# --policy and --high when not given, per player kind: SIMPLE's scripted controller and random
+# goals; HUMAN-LIKE's shipped (pretrained) low and high levels
+POLICY_DEFAULTS = {"simple": ("scripted", "random"), "humanlike": ("pretrained", "pretrained")}
+
+
+def _policies(args: argparse.Namespace) -> tuple[str, str]:
+    """The names of the low and high levels: as given, else the player kind's defaults."""
+    low, high = POLICY_DEFAULTS[args.player]
+    return (low if args.policy is None else args.policy,
+            high if args.high is None else args.high)
+
+
+def _rally_policies(player: str, low: str, high: str, seed: int,
+                    ) -> tuple[Callable, Callable]:
+    """(high level, rally low level) of ``player`` from their names; a bad name raises here."""
+    from rallysim.policies.registry import resolve
+
+    if player == "humanlike" and high == "centre":
+        high = "fixed:0,0,0"  # the 3-D rally's centre goal, as evaluate calls it
+    return resolve(high, "high", player, seed), resolve(low, "rally_low", player, seed)
+
+
 def _render(args: argparse.Namespace) -> int:
     """Write an MP4, a GIF and a strip of stills of N episodes (or rallies)."""
     from rallysim.envs.rally_task import RallyConfig
-    from rallysim.policies.resolve import high_level_policy, low_level_policy, rally_low_level
     from rallysim.render import record_low_level, record_rally, write_strip, write_video
 
+    policy, high_name = _policies(args)
     out = Path(args.out)
-    stem = out / f"{args.env}_{Path(args.policy).name}"
+    tag = "" if args.player == "simple" else f"{args.player}_"
+    stem = out / f"{tag}{args.env}_{Path(policy).name}"
     outputs = (stem.with_suffix(".mp4"), stem.with_suffix(".gif"),
                stem.with_name(stem.name + "_strip.png"))
     for path in outputs:
         _require(path, "file")  # before the rendering, which takes minutes
     # the policies first: a bad name fails before the folder is made or anything announced
     if args.env == "low":
-        low = low_level_policy(args.policy, args.seed)
+        low = _low_level_task_policy(args.player, policy, args.seed)
     else:
-        high, rally_low = high_level_policy(args.high, args.seed), rally_low_level(args.policy,
-                                                                                   args.seed)
+        high, rally_low = _rally_policies(args.player, policy, high_name, args.seed)
     out.mkdir(parents=True, exist_ok=True)
     width, height = args.size
-    camera = args.camera
-    print(f"rendering {args.episodes} {args.env} episode(s) with policy {args.policy!r} ...",
+    camera = args.camera  # None: the player kind's default
+    print(f"rendering {args.episodes} {args.env} episode(s) with policy {policy!r} ...",
           flush=True)
     if args.env == "low":
         frames = record_low_level(args.episodes, low, args.seed, args.shuttle, width, height,
-                                  camera)
+                                  camera, player=args.player)
     else:
         config = RallyConfig(shuttle=args.shuttle, mode=args.mode)
         frames = record_rally(args.episodes, high, rally_low, args.seed, config, width, height,
-                              camera)
+                              camera, player=args.player)
     mp4, gif, strip = outputs
     write_video(frames, mp4, fps=10)
     write_video(frames[:: args.gif_every], gif, fps=10 / args.gif_every)
@@ -246,20 +304,30 @@ def _render(args: argparse.Namespace) -> int:
     return 0
 
 
+def _low_level_task_policy(player: str, spec: str, seed: int) -> Callable | str:
+    """The low-level task's batched policy of ``player`` from its name (``random`` is left to
+    the recorder, which seeds it)."""
+    from rallysim.policies.registry import resolve
+
+    return spec if spec == "random" else resolve(spec, "low", player, seed)
+
+
 def _play(args: argparse.Namespace) -> int:
-    """Open MuJoCo's viewer on a live rally; optionally drive one player by keyboard."""
+    """Open MuJoCo's viewer on a live rally; optionally take part by keyboard (a SIMPLE
+    player's actions, a HUMAN-LIKE player's goals)."""
     from rallysim.envs.rally_task import RallyConfig
     from rallysim.envs.rendering import has_display
-    from rallysim.policies.resolve import high_level_policy, rally_low_level
     from rallysim.render.play import play
 
     if not has_display():
         raise UsageError("a display is needed (DISPLAY is unset); use `rallysim render` to "
                          "write videos instead")
     human = None if args.human == "none" else int(args.human)
-    lengths = play(rally_low_level(args.policy, args.seed), high_level_policy(args.high, args.seed),
-                   human=human, config=RallyConfig(shuttle=args.shuttle, mode=args.mode),
-                   seed=args.seed, seconds=args.seconds)
+    low, high = _policies(args)
+    high_level, low_level = _rally_policies(args.player, low, high, args.seed)
+    lengths = play(low_level, high_level, human=human,
+                   config=RallyConfig(shuttle=args.shuttle, mode=args.mode), seed=args.seed,
+                   seconds=args.seconds, player=args.player)
     if lengths:
         print(f"rallies played: {len(lengths)}, mean length {np.mean(lengths):.1f}")
     return 0
@@ -404,6 +472,11 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--seed", type=_seed, default=0)
 
 
+def _player(p: argparse.ArgumentParser, help_text: str) -> None:
+    p.add_argument("--player", choices=("simple", "humanlike"), default="simple",
+                   help=help_text)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="rallysim", description=__doc__,
                      formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -414,6 +487,8 @@ def build_parser() -> argparse.ArgumentParser:
     demo.add_argument("--envs", type=_positive, default=256)
     demo.add_argument("--policy", default="scripted",
                       help="scripted, random, pretrained or a policy path prefix")
+    _player(demo, "the low-level task's player (humanlike: RallySim/HumanLikeReturn-v0, "
+                  "scripted = AimedSwing)")
     _common(demo)
     demo.set_defaults(run=_demo)
 
@@ -484,13 +559,19 @@ def build_parser() -> argparse.ArgumentParser:
 
     render = sub.add_parser("render", help="write an MP4, a GIF and stills of episodes")
     render.add_argument("--env", choices=("low", "rally"), default="rally")
-    render.add_argument("--policy", default="scripted",
-                        help="low level: scripted, random, pretrained or a policy path prefix")
-    render.add_argument("--high", default="random",
-                        help="rally goals: random, fixed:D, pretrained or a policy path prefix")
+    _player(render, "the players (humanlike: the 3-D rally, by default with the shipped "
+                    "pretrained high and low levels)")
+    render.add_argument("--policy", default=None,
+                        help="low level: scripted, random, pretrained or a policy path prefix "
+                             "(default: scripted; humanlike: pretrained)")
+    render.add_argument("--high", default=None,
+                        help="rally goals: random, fixed:D, pretrained or a policy path prefix "
+                             "(default: random); humanlike: centre, random, pretrained (the "
+                             "default) or a path prefix")
     render.add_argument("--mode", choices=("cooperative", "competitive"), default="cooperative")
     render.add_argument("--episodes", type=_positive, default=2)
-    render.add_argument("--camera", choices=("side", "three_quarter"), default="side")
+    render.add_argument("--camera", choices=("side", "three_quarter", "three_quarter_close"),
+                        default=None, help="default: side; humanlike: three_quarter_close")
     render.add_argument("--size", type=_size, default=(640, 360), help="WIDTHxHEIGHT")
     render.add_argument("--stills", type=_positive, default=8, help="frames in the strip")
     render.add_argument("--gif-every", type=_gif_step, default=2,
@@ -500,9 +581,13 @@ def build_parser() -> argparse.ArgumentParser:
     render.set_defaults(run=_render)
 
     play = sub.add_parser("play", help="watch a live rally; take over a player by keyboard")
+    _player(play, "the players (humanlike: your keys choose your player's goals, its learned "
+                  "low level swings)")
     play.add_argument("--human", choices=("none", "0", "1"), default="0")
-    play.add_argument("--policy", default="scripted", help="the computer's low level")
-    play.add_argument("--high", default="random", help="the computer's goals")
+    play.add_argument("--policy", default=None,
+                      help="the low level (default: scripted; humanlike: pretrained)")
+    play.add_argument("--high", default=None,
+                      help="the computer's goals (default: random; humanlike: pretrained)")
     play.add_argument("--mode", choices=("cooperative", "competitive"), default="competitive")
     play.add_argument("--seconds", type=_seconds, default=None,
                       help="close the window after this many seconds (default: when you close it)")

@@ -1,15 +1,24 @@
 """Rendering for the env views: ``render_mode="rgb_array"`` frames and ``"human"`` windows.
 
-The renderer (``rallysim.render``, an optional extra) is created on the first ``render()``
-call, so envs without rendering never touch OpenGL.
+An ``EnvView`` gets its renderer and its window from factories, called on the first
+``render()``, so envs without rendering never touch OpenGL, and no env module imports
+``rallysim.render`` (an optional extra) when it is imported. The default factories load the
+drawing modules (``rallysim.render.scene``, ``rallysim.render.viewer``), which import nothing
+of ``rallysim.envs``: the envs-to-render dependency runs one way only.
 """
 
 from __future__ import annotations
 
 import os
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
+
+# (n_players, width, height, camera, player, offscreen) -> a renderer with SceneRenderer's API
+RendererFactory = Callable[[int, int, int, str | None, str, bool], Any]
+# (model, data, camera) -> a window with the API of MuJoCo's passive viewer handle
+ViewerFactory = Callable[[Any, Any, str], Any]
 
 
 def has_display() -> bool:
@@ -34,17 +43,43 @@ def check_render_mode(render_mode: str | None) -> str | None:
     return render_mode
 
 
+def scene_renderer(n_players: int, width: int, height: int, camera: str | None, player: str,
+                   offscreen: bool) -> Any:
+    """The default ``RendererFactory``: ``rallysim.render.scene.SceneRenderer``."""
+    try:
+        from rallysim.render.scene import SceneRenderer
+    except ImportError as err:
+        raise ImportError("rendering needs the render extra: "
+                          "pip install 'rallysim[render]'") from err
+    return SceneRenderer(n_players, width, height, camera=camera, player=player,
+                         offscreen=offscreen)
+
+
+def passive_viewer(model: Any, data: Any, camera: str) -> Any:
+    """The default ``ViewerFactory``: MuJoCo's passive viewer
+    (``rallysim.render.viewer.launch_viewer``)."""
+    from rallysim.render.viewer import launch_viewer
+
+    return launch_viewer(model, data, camera)
+
+
 class EnvView:
     """Draws environment ``env_index`` of a ``Game`` for one env view.
 
     ``player`` is the kind of player the env's games have (``"simple"`` or ``"humanlike"``,
-    see ``rallysim.render.SceneRenderer``); ``camera`` None picks that kind's default."""
+    see ``rallysim.render.SceneRenderer``); ``camera`` None picks that kind's default.
+    ``renderer_factory`` makes the renderer (for ``"human"``, one without an offscreen
+    context: the window draws its world), ``viewer_factory`` the ``"human"`` window; both
+    must pickle (module-level functions do) for the view to be copied."""
 
     def __init__(self, render_mode: str | None, n_players: int, width: int = 640,
-                 height: int = 360, camera: str | None = None, player: str = "simple") -> None:
+                 height: int = 360, camera: str | None = None, player: str = "simple",
+                 renderer_factory: RendererFactory = scene_renderer,
+                 viewer_factory: ViewerFactory = passive_viewer) -> None:
         self.mode = check_render_mode(render_mode)
         self.n_players, self.size, self.camera = n_players, (width, height), camera
         self.player = player
+        self.renderer_factory, self.viewer_factory = renderer_factory, viewer_factory
         self._scene: Any = None
         self._viewer: Any = None
 
@@ -55,14 +90,9 @@ class EnvView:
 
     def _scene_renderer(self) -> Any:
         if self._scene is None:
-            try:
-                from rallysim.render import SceneRenderer
-            except ImportError as err:
-                raise ImportError("rendering needs the render extra: "
-                                  "pip install 'rallysim[render]'") from err
             # "human": MuJoCo's viewer draws the model itself, no offscreen context needed
-            self._scene = SceneRenderer(self.n_players, *self.size, camera=self.camera,
-                                        player=self.player, offscreen=self.mode == "rgb_array")
+            self._scene = self.renderer_factory(self.n_players, *self.size, self.camera,
+                                                self.player, self.mode == "rgb_array")
         return self._scene
 
     def new_episode(self) -> None:
@@ -81,9 +111,7 @@ class EnvView:
             return scene.render(game, env_index, target_depth, hud_text,
                                 target_velocity=target_velocity)
         if self._viewer is None:
-            from rallysim.render.play import launch_viewer
-
-            self._viewer = launch_viewer(scene.model, scene.data, scene.camera)
+            self._viewer = self.viewer_factory(scene.model, scene.data, scene.camera)
         # the viewer draws from its own thread: change its world only under its lock.
         # Targets drawn per frame, not bodies of the model (HUMAN-LIKE's arrows; SIMPLE has
         # none), go to the viewer's own scene.

@@ -1,144 +1,204 @@
-"""Recording episodes of the low-level task as frames, one per decision (10 frames/s of game
-time), with the goal's marker on the floor and a HUD of the episode and its reward."""
+"""Recording episodes as frames, one per decision (10 frames/s of game time), for SIMPLE and
+HUMAN-LIKE players:
+
+- ``record_low_level``: episodes of the low-level task (``SimpleReturnEnv`` or
+  ``HumanLikeReturnEnv``) with the goal's marker and a HUD of the episode and its reward;
+- ``record_rally``: rallies played by the turn loop (``rallysim.envs.turn_loop``) with each
+  player's held goal and a HUD of the rally length and score.
+"""
 
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from rallysim.core.game import PHYSICS_DT, PHYSICS_STEPS_PER_DECISION
-from rallysim.envs.rally_task import RALLY_OBS_SIZE, RallyConfig, RallyTask
-from rallysim.envs.simple_return_v0 import SimpleReturnEnv
+from rallysim.envs.rally_task import RallyConfig, RallyTask
+from rallysim.envs.turn_loop import TurnLoop, rally_core
 from rallysim.policies.registry import resolve
-from rallysim.policies.resolve import low_level_policy
-from rallysim.policies.types import LowLevel
+from rallysim.policies.types import HighLevel, LowLevel, Policy
+from rallysim.render.markers import goal_markers, target_markers
 from rallysim.render.scene import SceneRenderer
 
 POLICIES = ("scripted", "random")
 DECISION_SECONDS = PHYSICS_DT * PHYSICS_STEPS_PER_DECISION  # 0.1 s
-Policy = Callable[[np.ndarray], np.ndarray]  # one observation (17,) -> one action (3,)
+
+
+# -- the low-level task -------------------------------------------------------------------------
+@dataclass(frozen=True)
+class _LowLevelTask:
+    """What recording one player kind's low-level task needs."""
+
+    make_env: Callable[[str], Any]  # shuttle -> a single env
+    player: str
+    goal_text: Callable[[Any], str]
+    event_text: Callable[[dict[str, Any]], str]  # "" when nothing happened
+
+
+def _simple_task() -> _LowLevelTask:
+    from rallysim.envs.simple_return_v0 import SimpleReturnEnv
+
+    def event(info: dict[str, Any]) -> str:
+        if info.get("landed"):
+            return f"landed {'in' if info['landed_in'] else 'out'} at {info['landing_depth']:.2f} m"
+        if info.get("hit"):
+            return f"hit at {info['racket_speed']:.1f} m/s"
+        return ""
+
+    return _LowLevelTask(lambda shuttle: SimpleReturnEnv(shuttle=shuttle), "simple",
+                         lambda goal: f"target {goal:.2f} m", event)
+
+
+def _humanlike_task() -> _LowLevelTask:
+    from rallysim.envs.humanlike_return_v0 import HumanLikeReturnEnv
+
+    def event(info: dict[str, Any]) -> str:
+        if info.get("landed"):
+            return f"landed at x = {info['landing_point'][0]:+.2f} m"
+        if info.get("hit"):
+            speed = float(np.linalg.norm(info["racket_velocity"]))
+            return f"hit at {speed:.1f} m/s, {info['angle_error']:.0f} deg off"
+        return ""
+
+    return _LowLevelTask(lambda shuttle: HumanLikeReturnEnv(shuttle=shuttle), "humanlike",
+                         lambda v: f"target ({v[0]:+.1f}, {v[1]:+.1f}, {v[2]:+.1f}) m/s", event)
+
+
+_LOW_LEVEL_TASKS = {"simple": _simple_task, "humanlike": _humanlike_task}
 
 
 def record_low_level(n_episodes: int = 1, policy: str | Policy = "scripted", seed: int = 0,
                      shuttle: str = "paper", width: int = 640, height: int = 360,
-                     camera: str = "side", renderer: SceneRenderer | None = None,
-                     ) -> list[np.ndarray]:
-    """Play ``n_episodes`` of ``SimpleReturnEnv`` and render every decision.
+                     camera: str | None = None, renderer: SceneRenderer | None = None,
+                     player: str = "simple") -> list[np.ndarray]:
+    """Play ``n_episodes`` of the low-level task of ``player`` (``"simple"``:
+    ``SimpleReturnEnv``; ``"humanlike"``: ``HumanLikeReturnEnv``) and render every decision.
 
-    ``policy`` is "scripted" (``ScriptedController``), "random" (uniform actions) or a batched
-    callable ``(N, 17) observations -> (N, 3) actions``. Episode k
-    is reset with seed ``seed + k``, so each episode replays on its own. Each episode gives its
-    reset frame and one frame per step, the landing included. Pass a ``renderer`` (one player)
-    to reuse its OpenGL context; its size and camera then win over the arguments."""
+    ``policy`` is "scripted" (``ScriptedController``; HUMAN-LIKE: ``AimedSwing``), "random"
+    (uniform actions) or a batched callable ``(N, obs) observations -> (N, actions)``. Episode
+    k is reset with seed ``seed + k``, so each episode replays on its own. Each episode gives
+    its reset frame and one frame per step, the landing included. ``camera`` None is the
+    player kind's default. Pass a ``renderer`` (one player) to reuse its OpenGL context; its
+    size and camera then win over the arguments."""
+    if player not in _LOW_LEVEL_TASKS:
+        raise ValueError(f"unknown player kind {player!r}; valid: "
+                         f"{', '.join(map(repr, _LOW_LEVEL_TASKS))}")
     if not callable(policy) and policy not in POLICIES:
         raise ValueError(f"unknown policy {policy!r}; valid: {', '.join(map(repr, POLICIES))}")
     if n_episodes < 1:
         raise ValueError(f"n_episodes must be >= 1, got {n_episodes}")
+    task = _LOW_LEVEL_TASKS[player]()
     own = renderer is None
-    view = SceneRenderer(1, width, height, camera) if renderer is None else renderer
-    env = SimpleReturnEnv(shuttle=shuttle)
-    act = _policy(policy, seed)
+    view = (SceneRenderer(1, width, height, camera, player=player) if renderer is None
+            else renderer)
+    env = task.make_env(shuttle)
+    batched = resolve(policy, "low", task.player, seed)
+
+    def act(obs: np.ndarray) -> np.ndarray:  # one observation -> one action
+        return np.asarray(batched(obs[None, :]))[0]
+
     frames: list[np.ndarray] = []
     try:
         for k in range(n_episodes):
-            frames += _episode(env, view, act, seed + k, f"episode {k + 1}/{n_episodes}")
+            frames += _episode(env, view, act, task, player, seed + k,
+                               f"episode {k + 1}/{n_episodes}")
     finally:
         if own:
             view.close()
     return frames
 
 
-def _policy(name: str | Policy, seed: int) -> Policy:
-    """One observation -> one action, from a batched policy or a shipped one's name."""
-    batched = name if callable(name) else low_level_policy(name, seed)
-    return lambda obs: np.asarray(batched(obs[None, :]))[0]
-
-
-def _episode(env: SimpleReturnEnv, view: SceneRenderer, act: Policy, seed: int, title: str,
-             ) -> list[np.ndarray]:
+def _episode(env: Any, view: SceneRenderer, act: Policy, task: _LowLevelTask, player: str,
+             seed: int, title: str) -> list[np.ndarray]:
     obs, info = env.reset(seed=seed)
-    goal = info["target_depth"]
+    goal = info[env.goal_key]
+    marker = target_markers(player, goal)
     game = env.task.game
     view.reset_trail()
     total, decisions, event = 0.0, 0, ""
-    frames = [view.render(game, 0, goal, _hud(title, decisions, goal, total, event))]
+
+    def frame() -> np.ndarray:
+        line1 = f"{title}   t = {decisions * DECISION_SECONDS:.1f} s   reward {total:+.3f}"
+        line2 = task.goal_text(goal) + (f"   {event}" if event else "")
+        return view.render(game, 0, hud_text=f"{line1}\n{line2}", **marker)
+
+    frames = [frame()]
     done = False
     while not done:
         obs, reward, term, trunc, info = env.step(act(obs))
         total += reward
         decisions += 1
         done = term or trunc
-        if info.get("hit"):
-            event = f"hit at {info['racket_speed']:.1f} m/s"
-        if info.get("landed"):
-            where = "in" if info["landed_in"] else "out"
-            event = f"landed {where} at {info['landing_depth']:.2f} m"
-        frames.append(view.render(game, 0, goal, _hud(title, decisions, goal, total, event)))
+        event = task.event_text(info) or event
+        frames.append(frame())
     return frames
 
 
-def _hud(title: str, decisions: int, goal: float, total: float, event: str) -> str:
-    line1 = f"{title}   t = {decisions * DECISION_SECONDS:.1f} s   reward {total:+.3f}"
-    line2 = f"target {goal:.2f} m" + (f"   {event}" if event else "")
-    return f"{line1}\n{line2}"
-
-
-HighLevel = Callable[[np.ndarray], np.ndarray]  # (M, 20) observations -> (M,) goals
-
-
+# -- rallies ------------------------------------------------------------------------------------
 def record_rally(n_rallies: int = 1, high_level: HighLevel | None = None,
                  low_level: LowLevel | str = "scripted", seed: int = 0,
                  config: RallyConfig | None = None, width: int = 640, height: int = 360,
-                 camera: str = "side", max_decisions: int = 2000,
-                 renderer: SceneRenderer | None = None) -> list[np.ndarray]:
-    """Play ``n_rallies`` rallies (or competitive games) and render every decision.
+                 camera: str | None = None, max_decisions: int = 2000,
+                 renderer: SceneRenderer | None = None, player: str = "simple",
+                 ) -> list[np.ndarray]:
+    """Play ``n_rallies`` rallies (or competitive games) of ``player``'s players (``"simple"``
+    or ``"humanlike"``) and render every decision.
 
-    Each player's goal is chosen by ``high_level`` when its turn begins (default: uniform in
-    [2, 6] m) and shown as its red marker; ``low_level`` swings. The HUD shows the rally
-    length and the score. Rally k is seeded ``seed + k``."""
+    Each player's goal is chosen by ``high_level`` (observations (M, obs) -> M goals) when
+    its turn begins (default: uniform: depths in [2, 6] m; HUMAN-LIKE goals in [-1, 1]^3) and
+    drawn as its red marker (a disc at the depth; HUMAN-LIKE: the target racket velocity's
+    arrow); ``low_level`` (a callable or a name the rally core resolves) swings. The HUD shows
+    the rally length and the score. Rally k is seeded ``seed + k``: the rally of a turn-based
+    env reset with that seed and given the same goals. ``camera`` None is the player kind's
+    default."""
     if n_rallies < 1:
         raise ValueError(f"n_rallies must be >= 1, got {n_rallies}")
-    rng = np.random.default_rng(seed)
-    choose = high_level or (lambda obs: rng.uniform(2.0, 6.0, len(obs)))
-    low = resolve(low_level, "rally_low", "simple", seed)
+    rally = rally_core(player)
+    choose = high_level or _uniform_goals(rally, np.random.default_rng(seed))
+    low = resolve(low_level, "rally_low", rally.spec, seed)
     own = renderer is None
-    view = SceneRenderer(2, width, height, camera) if renderer is None else renderer
+    view = (SceneRenderer(2, width, height, camera, player=player) if renderer is None
+            else renderer)
     frames: list[np.ndarray] = []
     try:
         for k in range(n_rallies):
-            task = RallyTask(1, config, seed=seed + k)
-            task.reset(np.array([0]))
+            loop = TurnLoop(rally(1, config, seed=seed + k), low)
+            loop.reset(np.array([0]))
             view.reset_trail()
-            frames += _rally(task, view, choose, low, f"rally {k + 1}/{n_rallies}",
-                             max_decisions)
+            frames += _rally(loop, view, choose, f"rally {k + 1}/{n_rallies}", max_decisions)
     finally:
         if own:
             view.close()
     return frames
 
 
-def _rally(task: RallyTask, view: SceneRenderer, choose: HighLevel, low: LowLevel, title: str,
+def _uniform_goals(rally: type[RallyTask], rng: np.random.Generator) -> HighLevel:
+    if rally.goal_size == 1:
+        return lambda obs: rng.uniform(2.0, 6.0, len(obs))
+    return lambda obs: rng.uniform(-1.0, 1.0, (len(obs), rally.goal_size))
+
+
+def _rally(loop: TurnLoop, view: SceneRenderer, choose: HighLevel, title: str,
            max_decisions: int) -> list[np.ndarray]:
-    goals = np.full(2, 4.0)
+    task = loop.rally
     frames = []
-    for decisions in range(max_decisions + 1):
-        obs = task.observe()[0]
-        starting = task.turn_started[0]
-        if starting.any():
-            goals[starting] = choose(obs[starting])
+
+    def frame(first_line: str) -> np.ndarray:
         score = task.score[0]
-        hud = (f"{title}   t = {decisions * DECISION_SECONDS:.1f} s\n"
-               f"rally length {int(task.game.hits[0])}   score {score[0]}-{score[1]}")
-        frames.append(view.render(task.game, 0, list(goals), hud))
+        hud = f"{first_line}\nrally length {int(task.game.hits[0])}   score {score[0]}-{score[1]}"
+        return view.render(task.game, 0, hud_text=hud, **goal_markers(task.player, loop.goals[0]))
+
+    for decisions in range(max_decisions + 1):
+        obs = loop.observe()
+        loop.choose_goals(choose, obs)
+        frames.append(frame(f"{title}   t = {decisions * DECISION_SECONDS:.1f} s"))
         if decisions == max_decisions:
             break
-        actions = np.clip(low(obs.reshape(2, RALLY_OBS_SIZE), goals), -1.0, 1.0)
-        _, term, trunc, _ = task.step(actions.reshape(1, 2, 3))
+        _, term, trunc, _ = loop.step(loop.low_level_actions(obs))
         if term[0] or trunc[0]:
-            score = task.score[0]
-            frames.append(view.render(task.game, 0, list(goals), (
-                f"{title}   over after {decisions + 1} decisions\n"
-                f"rally length {int(task.game.hits[0])}   score {score[0]}-{score[1]}")))
+            frames.append(frame(f"{title}   over after {decisions + 1} decisions"))
             break
     return frames
