@@ -30,17 +30,18 @@ from rallysim.train.runner import build_model, train_stage
 pytestmark = pytest.mark.skipif(sys.platform == "win32",
                                 reason="needs SIGKILL and the forkserver start method")
 
-TINY = {"n_envs": 16, "n_steps": 32, "batch_size": 256, "n_epochs": 2, "eval_episodes": 8,
-        "eval_every": 0, "checkpoint_every": 1024}  # 512 decisions per rollout
+TINY = {"ppo.n_envs": 16, "ppo.n_steps": 32, "ppo.batch_size": 256, "ppo.n_epochs": 2,
+        "eval.episodes": 8, "eval.every": 0, "checkpoint_every": 1024}  # 512 per rollout
 # three rounds of a clone (round 0, then two DAgger rounds), PPO after it
-WARM = {**TINY, "decisions": 1024, "warm_start": "scripted", "warm_start_decisions": 16384,
-        "warm_start_epochs": 2, "warm_start_dagger": 2, "warm_start_lr_decay": True}
+WARM = {**TINY, "budget": 1024, "warm_start.teacher": "scripted",
+        "warm_start.decisions": 16384, "warm_start.epochs": 2, "warm_start.dagger": 2,
+        "warm_start.lr_decay": True}
 
 
 def _cli_args(out: Path, overrides: dict) -> list[str]:
     sets = [f"{k}={str(v).lower() if isinstance(v, bool) else v}" for k, v in overrides.items()
-            if k != "decisions"]
-    return ["train", "low", "--out", str(out), "--decisions", str(overrides["decisions"]),
+            if k != "budget"]
+    return ["train", "low", "--out", str(out), "--budget", str(overrides["budget"]),
             "--set", *sets]
 
 
@@ -106,7 +107,7 @@ def _assert_same(a: list[np.ndarray], b: list[np.ndarray]) -> None:
 def test_ppo_killed_at_every_write_point_resumes_losing_at_most_one_interval(tmp_path,
                                                                             killed_run):
     out = tmp_path / "run"
-    budget = {**TINY, "decisions": 3072}  # saves at 1024, 2048, 3072, then 3072 again (final)
+    budget = {**TINY, "budget": 3072}  # saves at 1024, 2048, 3072, then 3072 again (final)
     folder = out / "checkpoints"
 
     # the second save's tensors written under their temporary name: the run had 2048 done and
@@ -117,7 +118,7 @@ def test_ppo_killed_at_every_write_point_resumes_losing_at_most_one_interval(tmp
     # tensors in place, JSON not written; then the JSON written, not renamed
     for crash in ("checkpoint.tensors:1", "checkpoint.json.tmp:1"):
         log = killed_run(out, budget, crash)
-        assert "resuming low from step_000000001024.json (1,024 steps done)" in log
+        assert "resuming low from step_000000001024.json (1,024 decisions done)" in log
         name, doc = _newest(folder)
         assert (name, doc["decisions"]) == ("step_000000001024.json", 1024)
         ckpt.read_checkpoint(folder / name)  # intact
@@ -132,7 +133,7 @@ def test_ppo_killed_at_every_write_point_resumes_losing_at_most_one_interval(tmp
     for crash in ("checkpoint.json.tmp:1", "checkpoint.json:1", "checkpoint.saved:1",
                   "curve.tmp:1"):
         log = killed_run(out, budget, crash)
-        assert "resuming low from step_000000003072.json (3,072 steps done)" in log
+        assert "resuming low from step_000000003072.json (3,072 decisions done)" in log
         ckpt.read_checkpoint(folder / _newest(folder)[0])
     assert not (out / "curve.json").exists() and (out / "policy.json").exists()
     exported = _layers(out / "policy")
@@ -179,7 +180,7 @@ def test_warm_start_killed_at_every_write_point_resumes_bit_identical(tmp_path, 
 
     # the settings a saved warm start was made with are not silently mixed with others
     with pytest.raises(ckpt.CheckpointMismatch, match="settings"):
-        train_stage(load_config("low", None, {**WARM, "warm_start_epochs": 3}), out,
+        train_stage(load_config("low", None, {**WARM, "warm_start.epochs": 3}), out,
                     progress=False)
     # the hand-over to PPO: its first checkpoint half written, then written
     killed_run(out, WARM, "checkpoint.tensors:1")
@@ -205,7 +206,7 @@ def test_warm_start_killed_at_every_write_point_resumes_bit_identical(tmp_path, 
 def saved(tmp_path_factory):
     """A run folder with three checkpoints of one tiny model (512, 1024, 1536 decisions)."""
     out = tmp_path_factory.mktemp("saved")
-    config = load_config("low", None, {**TINY, "decisions": 512})
+    config = load_config("low", None, {**TINY, "budget": 512})
     model = build_model(config, out)
     meta = {"stage": "low", "network": config.network(), "curve": {"evals": [], "rollouts": []}}
     for step in (512, 1024, 1536):

@@ -22,6 +22,7 @@ from rallysim import cli
 from rallysim.cli import main, path_problem
 from rallysim.train import config as train_config
 from rallysim.train.config import TrainConfig, load_config, parse_overrides
+from rallysim.train.sections import EvalSettings, PPOSettings
 
 LONG_NAME = "x" * 300  # over NAME_MAX (255 bytes) of every common Linux file system
 
@@ -32,8 +33,9 @@ CONFIG_FILES = {
     "scalar_yaml": "42\n",
     "unknown_yaml": "lr: 1.0\n",
     "stage_yaml": "stage: nope\n",
-    "gamma_yaml": "gamma: 5\n",
-    "nan_yaml": "learning_rate: .nan\n",
+    "gamma_yaml": "ppo:\n  gamma: 5\n",
+    "nan_yaml": "learning_rate: .nan\n",  # an old flat name: still checked
+    "section_yaml": "ppo: 3\n",
     "nullkey_yaml": "null: 1\n1: 3\n",  # keys that do not sort with the field names
 }
 
@@ -90,35 +92,46 @@ BAD_PATHS: dict[str, dict[str, str]] = {
     },
 }
 # what the one line must name, per config file (the others name the option)
-CONFIG_FILE_WORDS = {"gamma_yaml": "gamma", "nan_yaml": "learning_rate",
+CONFIG_FILE_WORDS = {"gamma_yaml": "ppo.gamma", "nan_yaml": "ppo.learning_rate",
                      "unknown_yaml": "unknown setting", "nullkey_yaml": "unknown setting",
-                     "stage_yaml": "stage"}
+                     "stage_yaml": "stage", "section_yaml": "section"}
 
-# --set KEY=VALUE that no stage accepts
+# --set KEY=VALUE that no stage accepts (the line names the key)
 BAD_SETTINGS = [
-    "n_envs=abc", "n_envs=0", "n_envs=-4", "n_envs=1.5", "n_envs=true", "n_envs=.nan",
-    "n_envs=[64]", "n_steps=0", "batch_size=0", "batch_size=-1", "n_epochs=0", "decisions=-1",
-    "decisions=0", "decisions=abc", "decisions=1e400", "seed=-1", "seed=2147483648", "seed=1.5",
-    "eval_seed=-1", "learning_rate=0", "learning_rate=-0.001", "learning_rate=.inf",
-    "learning_rate=.nan", "learning_rate=nan", "learning_rate=abc", "learning_rate=true",
-    "gamma=5", "gamma=-0.1", "gamma=1.0001", "gamma=.nan", "gae_lambda=1.5", "gae_lambda=-1",
-    "clip_range=0", "clip_range=-0.2", "clip_range=.nan", "ent_coef=-0.01", "ent_coef=.inf",
-    "vf_coef=-1", "max_grad_norm=0", "target_kl=0", "target_kl=-0.1", "target_kl=.nan",
-    "target_kl=abc", "net_arch=[0]", "net_arch=[64,0]", "net_arch=[64,-1]", "net_arch=abc",
-    "net_arch=64", "net_arch=[1.5]", "net_arch=[true]", "net_arch={a: 1}",
-    "activation=sigmoid", "activation=", "log_std_init=.nan", "log_std_init=-.inf",
-    "torch_threads=0", "eval_every=-1", "eval_episodes=0", "checkpoint_every=0",
-    "low_policy=", "low_policy=5", "incoming=volley", "keep_bodies=maybe", "anneal_lr=2",
-    "warm_start=teacher", "warm_start_decisions=0", "warm_start_epochs=0",
-    "warm_start_log_std=.nan", "warm_start_dagger=-1", "warm_start_batch_size=0",
-    "warm_start_lr_decay=3", "shuttle=feather", "env=3d", "stage=nope", "foo=1",
-    "n_envs", "=3", "net_arch=[1,", "gamma=[1",
+    "ppo.n_envs=abc", "ppo.n_envs=0", "ppo.n_envs=-4", "ppo.n_envs=1.5", "ppo.n_envs=true",
+    "ppo.n_envs=.nan", "ppo.n_envs=[64]", "ppo.n_steps=0", "ppo.batch_size=0",
+    "ppo.batch_size=-1", "ppo.n_epochs=0", "budget=-1", "budget=0", "budget=abc",
+    "budget=1e400", "seed=-1", "seed=2147483648", "seed=1.5", "eval.seed=-1",
+    "ppo.learning_rate=0", "ppo.learning_rate=-0.001", "ppo.learning_rate=.inf",
+    "ppo.learning_rate=.nan", "ppo.learning_rate=nan", "ppo.learning_rate=abc",
+    "ppo.learning_rate=true", "ppo.gamma=5", "ppo.gamma=-0.1", "ppo.gamma=1.0001",
+    "ppo.gamma=.nan", "ppo.gae_lambda=1.5", "ppo.gae_lambda=-1", "ppo.clip_range=0",
+    "ppo.clip_range=-0.2", "ppo.clip_range=.nan", "ppo.ent_coef=-0.01", "ppo.ent_coef=.inf",
+    "ppo.vf_coef=-1", "ppo.max_grad_norm=0", "ppo.target_kl=0", "ppo.target_kl=-0.1",
+    "ppo.target_kl=.nan", "ppo.target_kl=abc", "ppo.net_arch=[0]", "ppo.net_arch=[64,0]",
+    "ppo.net_arch=[64,-1]", "ppo.net_arch=abc", "ppo.net_arch=64", "ppo.net_arch=[1.5]",
+    "ppo.net_arch=[true]", "ppo.net_arch={a: 1}", "ppo.activation=sigmoid",
+    "ppo.activation=", "ppo.log_std_init=.nan", "ppo.log_std_init=-.inf", "torch_threads=0",
+    "eval.every=-1", "eval.episodes=0", "checkpoint_every=0", "low_policy=", "low_policy=5",
+    "incoming=volley", "keep_bodies=maybe", "ppo.anneal_lr=2", "warm_start.teacher=teacher",
+    "warm_start.decisions=0", "warm_start.epochs=0", "warm_start.log_std=.nan",
+    "warm_start.dagger=-1", "warm_start.batch_size=0", "warm_start.lr=0",
+    "warm_start.lr_decay=3", "shuttle=feather", "player=3d", "stage=nope", "foo=1",
+    "ppo.foo=1", "foo.n_envs=1", "budget_unit=weeks", "ppo=3", "n_envs", "=3",
+    "ppo.net_arch=[1,", "ppo.gamma=[1",
 ]
+# the names from before the sections, with a bad value: the line names the setting's new name
+LEGACY_BAD_SETTINGS = [("n_envs=0", "ppo.n_envs"), ("decisions=abc", "budget"),
+                       ("env=3d", "player"), ("warm_start=teacher", "warm_start.teacher"),
+                       ("warm_start_dagger=-1", "warm_start.dagger"),
+                       ("eval_episodes=0", "eval.episodes"),
+                       ("net_arch=[64,0]", "ppo.net_arch"),
+                       ("n_envs=8 ppo.n_envs=16", "twice")]
 # settings bad for one stage only
-STAGE_SETTINGS = [("mono", "n_envs=3", "even n_envs"),
-                  ("high", "warm_start=scripted", "warm_start"),
-                  ("mono", "warm_start=scripted", "warm_start"),
-                  ("mono", "env=humanlike", "HUMAN-LIKE")]
+STAGE_SETTINGS = [("mono", "ppo.n_envs=3", "ppo.n_envs"),
+                  ("high", "warm_start.teacher=scripted", "warm_start"),
+                  ("mono", "warm_start.teacher=scripted", "warm_start"),
+                  ("mono", "player=humanlike", "HUMAN-LIKE")]
 
 # argparse-level errors: (argv, a word the line must hold)
 OPTION_ERRORS: list[tuple[list[str], str]] = [
@@ -141,7 +154,9 @@ OPTION_ERRORS: list[tuple[list[str], str]] = [
     (["evaluate", "--rallies", "0"], "--rallies"), (["evaluate", "--seeds", "0"], "--seeds"),
     (["evaluate", "--episodes", "0"], "--episodes"), (["evaluate", "--cap", "0"], "--cap"),
     (["evaluate", "--cap", "100001"], "--cap"), (["evaluate", "--env", "bogus"], "--env"),
+    (["evaluate", "--player", "bogus"], "--player"),
     (["evaluate", "--env", "humanlike", "--cap", "10"], "--cap"),
+    (["evaluate", "--player", "humanlike", "--cap", "10"], "--cap"),
     (["reproduce", "--cap", "0"], "--cap"), (["reproduce", "--cap", "100001"], "--cap"),
     (["reproduce", "--seeds", "0"], "--seeds"), (["reproduce", "--workers", "0"], "--workers"),
     (["reproduce", "--budget", "huge"], "--budget"),
@@ -151,10 +166,15 @@ OPTION_ERRORS: list[tuple[list[str], str]] = [
     (["train", "low", "--address", "auto"], "--backend rllib"),
     (["train", "low", "--env-runners", "2"], "--backend rllib"),
     (["train", "low", "--decisions", "abc"], "--decisions"),
-    (["train", "low", "--decisions", "-5"], "decisions"),
-    (["train", "low", "--decisions", "0"], "decisions"),
+    (["train", "low", "--decisions", "-5"], "budget (decisions)"),
+    (["train", "low", "--decisions", "0"], "budget (decisions)"),
+    (["train", "low", "--budget", "abc"], "--budget"),
+    (["train", "high", "--budget", "0"], "budget (turns)"),
+    (["train", "mono", "--budget", "-1"], "budget (player-decisions)"),
     (["train", "low", "--shuttle", "x"], "--shuttle"), (["train", "low", "--env", "x"], "--env"),
+    (["train", "low", "--player", "x"], "--player"),
     (["train", "mono", "--env", "humanlike"], "HUMAN-LIKE"),
+    (["train", "mono", "--player", "humanlike"], "HUMAN-LIKE"),
     (["play", "--human", "2"], "--human"), (["play", "--mode", "x"], "--mode"),
     ([], "command"), (["bogus"], "bogus"), (["--bogus"], "command"),
     (["--bogus", "demo"], "unrecognized"),
@@ -179,6 +199,10 @@ def bad_input_templates() -> list[tuple[str, list[str], str]]:
             key = item.partition("=")[0]
             cases.append((f"train {stage} --set {item}", ["train", stage, "--set", item],
                           key or "--set"))
+    for stage in ("low", "high", "mono"):
+        for items, word in LEGACY_BAD_SETTINGS:
+            cases.append((f"train {stage} --set {items}", ["train", stage, "--set",
+                                                            *items.split()], word))
     for stage, item, word in STAGE_SETTINGS:
         cases.append((f"train {stage} --set {item}", ["train", stage, "--set", item], word))
     # files a command writes inside a usable --out, where a folder stands in the way
@@ -355,10 +379,10 @@ def test_good_paths_reach_the_work(no_long_work, tmp_path, tree):
     runs = [["evaluate", "--json", str(tmp_path / "new" / "deeper" / "all.json")],
             ["evaluate", "--json", str(Path(tree["dir"]) / "existing.json")],
             ["train", "low", "--out", str(tmp_path / "a" / "b"), "--config",
-             str(tmp_path / "mine.yaml"), "--set", "learning_rate=3e-4", "decisions=1e4"],
+             str(tmp_path / "mine.yaml"), "--set", "ppo.learning_rate=3e-4", "budget=1e4"],
             ["reproduce", "--out", str(tmp_path / "r")],
             ["render", "--out", str(tmp_path / "v" / "w")]]
-    (tmp_path / "mine.yaml").write_text("n_envs: 32\n")
+    (tmp_path / "mine.yaml").write_text("ppo:\n  n_envs: 32\n")
     (Path(tree["dir"]) / "existing.json").write_text("{}")
     for argv in runs:
         with pytest.raises(LongWork):
@@ -370,8 +394,8 @@ def test_good_paths_reach_the_work(no_long_work, tmp_path, tree):
 
 def test_traceback_on_request(monkeypatch, no_long_work):
     monkeypatch.setenv("RALLYSIM_TRACEBACK", "1")
-    with pytest.raises(ValueError, match="gamma must be in"):
-        main(["train", "low", "--set", "gamma=5"])
+    with pytest.raises(ValueError, match=r"ppo\.gamma must be in"):
+        main(["train", "low", "--set", "ppo.gamma=5"])
 
 
 @pytest.mark.parametrize("text, want, problem", [
@@ -393,33 +417,48 @@ def test_path_problem_passes_usable_paths(text, want, tree):
 
 
 def test_config_validated_at_construction_and_replace():
-    with pytest.raises(ValueError, match=r"^gamma must be in \[0, 1\], got 5$"):
-        TrainConfig(gamma=5)
-    with pytest.raises(ValueError, match=r"^net_arch layer widths must be >= 1, got \[64, 0\]$"):
-        replace(TrainConfig(), net_arch=(64, 0))
-    with pytest.raises(ValueError, match=r"^learning_rate must be finite, got nan$"):
-        TrainConfig(learning_rate=math.nan)
-    with pytest.raises(ValueError, match=r"^n_envs must be an integer, got True$"):
-        TrainConfig(n_envs=True)
-    with pytest.raises(ValueError, match=r"^net_arch must be a list of integer layer widths, "
-                                         r"got \[64, 1\.5\]$"):
-        TrainConfig(net_arch=(64, 1.5))
-    # a config rebuilt from its own dict (net_arch as a list) equals the original
+    with pytest.raises(ValueError, match=r"^ppo.gamma must be in \[0, 1\], got 5$"):
+        PPOSettings(gamma=5)
+    with pytest.raises(ValueError, match=r"^ppo.gamma must be in \[0, 1\], got 5$"):
+        TrainConfig(ppo={"gamma": 5})  # a section given as a mapping is checked the same
+    with pytest.raises(ValueError, match=r"^ppo.net_arch layer widths must be >= 1, got "
+                                         r"\[64, 0\]$"):
+        replace(TrainConfig().ppo, net_arch=(64, 0))
+    with pytest.raises(ValueError, match=r"^ppo.learning_rate must be finite, got nan$"):
+        PPOSettings(learning_rate=math.nan)
+    with pytest.raises(ValueError, match=r"^ppo.n_envs must be an integer, got True$"):
+        PPOSettings(n_envs=True)
+    with pytest.raises(ValueError, match=r"^ppo.net_arch must be a list of integer layer "
+                                         r"widths, got \[64, 1\.5\]$"):
+        PPOSettings(net_arch=(64, 1.5))
+    with pytest.raises(ValueError, match=r"^eval.episodes must be >= 1, got 0$"):
+        replace(TrainConfig(), eval=EvalSettings(episodes=0))
+    with pytest.raises(ValueError, match=r"^budget \(turns\) must be >= 1, got 0$"):
+        TrainConfig(stage="high", budget=0)
+    with pytest.raises(ValueError, match=r"^ppo must be a mapping of its settings, got 3$"):
+        TrainConfig(ppo=3)
+    # a config rebuilt from its own dict (sections as mappings, net_arch as a list) equals the
+    # original, through from_dict or the constructor
     original = load_config("high")
-    assert TrainConfig(**original.to_dict()) == original
+    assert TrainConfig.from_dict(original.to_dict()) == original
+    fields_only = {k: v for k, v in original.to_dict().items() if k != "budget_unit"}
+    assert TrainConfig(**fields_only) == original
     # the edges of each range are accepted
-    edge = TrainConfig(gamma=0, gae_lambda=1, eval_every=0, target_kl=None, ent_coef=0,
-                       vf_coef=0, seed=train_config.SEED_MAX, net_arch=())
-    assert (edge.gamma, edge.gae_lambda, edge.seed, edge.net_arch) == (0, 1, 2**31 - 1, ())
+    edge = TrainConfig(seed=train_config.SEED_MAX, ppo=PPOSettings(
+        gamma=0, gae_lambda=1, target_kl=None, ent_coef=0, vf_coef=0, net_arch=()),
+        eval=EvalSettings(every=0))
+    assert (edge.ppo.gamma, edge.ppo.gae_lambda, edge.seed, edge.ppo.net_arch) == (
+        0, 1, 2**31 - 1, ())
 
 
 def test_settings_text_is_read_as_the_field_type():
     # PyYAML reads 3e-4 and 1e6 (no dot) as strings: they are what a user means
-    c = load_config("low", None, parse_overrides(["learning_rate=3e-4", "decisions=1e6",
-                                                  "net_arch=[32.0, 16]", "target_kl=0.02"]))
-    assert (c.learning_rate, c.decisions, c.net_arch, c.target_kl) == (3e-4, 1_000_000,
-                                                                       (32, 16), 0.02)
-    assert type(c.decisions) is int and all(type(w) is int for w in c.net_arch)
+    c = load_config("low", None, parse_overrides(["ppo.learning_rate=3e-4", "budget=1e6",
+                                                  "ppo.net_arch=[32.0, 16]",
+                                                  "ppo.target_kl=0.02"]))
+    assert (c.ppo.learning_rate, c.budget, c.ppo.net_arch, c.ppo.target_kl) == (
+        3e-4, 1_000_000, (32, 16), 0.02)
+    assert type(c.budget) is int and all(type(w) is int for w in c.ppo.net_arch)
 
 
 def test_copies_of_bounds_match_their_source():
@@ -431,8 +470,9 @@ def test_copies_of_bounds_match_their_source():
 
 def test_every_packaged_config_is_valid():
     for stage in ("low", "high", "mono"):
-        for env in ("simple", "humanlike") if stage != "mono" else ("simple",):
-            assert load_config(stage, None, {"env": env}).stage == stage
+        for player in ("simple", "humanlike") if stage != "mono" else ("simple",):
+            config = load_config(stage, None, {"player": player})
+            assert (config.stage, config.player) == (stage, player)
 
 
 def test_unlock_tree_leaves_a_deletable_tree(tmp_path):

@@ -47,12 +47,12 @@ def test_evaluate_pretrained_writes_every_number(tmp_path):
 
 def test_pretrained_humanlike_hierarchy_meets_the_targets(tmp_path):
     """The shipped HUMAN-LIKE low level (a clone of AimedSwing after DAgger, trained by
-    ``rallysim train low --env humanlike``) on fresh serves: issue 5's targets (hit rate
+    ``rallysim train low --player humanlike``) on fresh serves: issue 5's targets (hit rate
     >= 90 %, mean angle error <= 5 deg, mean speed error <= 10 %; measured 1.000, 3.7 deg,
     2.6 %); and the shipped high level, trained over it, keeps 3-D rallies going far longer
     than the fixed centre goal does (measured 37.6 and 8.8 hits on these 16 rallies)."""
     path = tmp_path / "humanlike.json"
-    assert main(["evaluate", "--env", "humanlike", "--episodes", "200", "--rallies", "16",
+    assert main(["evaluate", "--player", "humanlike", "--episodes", "200", "--rallies", "16",
                  "--seeds", "1", "--json", str(path)]) == 0
     data = json.loads(path.read_text())
     r = data["returns"]
@@ -63,6 +63,6 @@ def test_pretrained_humanlike_hierarchy_meets_the_targets(tmp_path):
     assert r["mean_abs_speed_error"] <= 0.1
     hierarchy = data["rally"]["mean"]["value"]
     assert hierarchy >= 10  # issue 5's rally target
-    assert main(["evaluate", "--env", "humanlike", "--high", "centre", "--episodes", "8",
+    assert main(["evaluate", "--player", "humanlike", "--high", "centre", "--episodes", "8",
                  "--rallies", "16", "--seeds", "1", "--json", str(path)]) == 0
     assert json.loads(path.read_text())["rally"]["mean"]["value"] < 0.5 * hierarchy

@@ -39,9 +39,10 @@ def test_training_without_a_terminal_prints_progress_lines(tmp_path, monkeypatch
     from rallysim.train.runner import train_stage
 
     monkeypatch.setattr(progress, "HEARTBEAT_S", 0.2)
-    config = load_config("low", None, {"seed": 5, "n_envs": 32, "n_steps": 16,
-                                       "batch_size": 256, "decisions": 16384, "eval_every": 0,
-                                       "eval_episodes": 16, "checkpoint_every": 10**6})
+    config = load_config("low", None, {"seed": 5, "ppo.n_envs": 32, "ppo.n_steps": 16,
+                                       "ppo.batch_size": 256, "budget": 16384,
+                                       "eval.every": 0, "eval.episodes": 16,
+                                       "checkpoint_every": 10**6})
     lines: list[str] = []
     train_stage(config, tmp_path, progress=False, say=lines.append)
     beats = [line for line in lines if line.startswith("[low seed 5] PPO: ")]
@@ -49,6 +50,7 @@ def test_training_without_a_terminal_prints_progress_lines(tmp_path, monkeypatch
     done = [int(b.split(": ")[1].split("/")[0].replace(",", "")) for b in beats]
     assert done == sorted(done) and all(d <= 16384 for d in done)
     assert all("/s, ETA " in b for b in beats)
+    assert all(" decisions, " in b for b in beats)  # counted in the stage's budget unit
 
 
 @pytest.mark.parametrize("tty", [False, True])
@@ -62,9 +64,10 @@ def test_progress_lines_only_without_a_terminal(tmp_path, monkeypatch, capsys, t
 
     monkeypatch.setattr(progress, "HEARTBEAT_S", 0.2)
     monkeypatch.setattr(sys.stderr, "isatty", lambda: tty)
-    config = load_config("low", None, {"seed": 6, "n_envs": 32, "n_steps": 16,
-                                       "batch_size": 256, "decisions": 16384, "eval_every": 0,
-                                       "eval_episodes": 16, "checkpoint_every": 10**6})
+    config = load_config("low", None, {"seed": 6, "ppo.n_envs": 32, "ppo.n_steps": 16,
+                                       "ppo.batch_size": 256, "budget": 16384,
+                                       "eval.every": 0, "eval.episodes": 16,
+                                       "checkpoint_every": 10**6})
     train_stage(config, tmp_path, progress=True)
     err = capsys.readouterr().err
     assert ("[low seed 6] PPO: " in err) is not tty

@@ -70,7 +70,7 @@ def test_missing_extra_says_what_to_install(monkeypatch, capsys):
 
 
 def test_config_maps_onto_rllib_ppo():
-    low = load_config("low", None, {"target_kl": None})
+    low = load_config("low", None, {"ppo.target_kl": None})
     ppo = build_ppo_config(low, env_runners=4)
     assert ppo.lr == [[0, 3e-4], [2_000_000, 0.0]]  # anneal_lr: linear to 0 over the budget
     assert (ppo.gamma, ppo.lambda_, ppo.clip_param) == (0.99, 0.95, 0.2)
@@ -82,7 +82,7 @@ def test_config_maps_onto_rllib_ppo():
     assert ppo.gym_env_vectorize_mode == "vector_entry_point"
     assert ppo.seed == 0 and ppo.is_multi_agent is False
 
-    mono = build_ppo_config(load_config("mono", None, {"target_kl": 0.02, "seed": 3}), 2)
+    mono = build_ppo_config(load_config("mono", None, {"ppo.target_kl": 0.02, "seed": 3}), 2)
     assert mono.is_multi_agent and mono.count_steps_by == "agent_steps"
     assert mono.num_envs_per_env_runner == 16  # 64 slots = 32 rallies over 2 runners
     assert mono.lr == 3e-4 and mono.use_kl_loss and mono.kl_target == 0.02 and mono.seed == 3
@@ -204,9 +204,10 @@ def local_ray():
 
 def test_local_training_writes_a_policy_that_evaluate_reads(local_ray, tmp_path, capsys):
     out = tmp_path / "low"
-    args = ["train", "low", "--backend", "rllib", "--env-runners", "1", "--decisions", "8000",
-            "--out", str(out), "--set", "n_envs=32", "n_steps=64", "batch_size=512",
-            "eval_episodes=64", "checkpoint_every=4000", "anneal_lr=false"]
+    args = ["train", "low", "--backend", "rllib", "--env-runners", "1", "--budget", "8000",
+            "--out", str(out), "--set", "ppo.n_envs=32", "ppo.n_steps=64",
+            "ppo.batch_size=512", "eval.episodes=64", "checkpoint_every=4000",
+            "ppo.anneal_lr=false"]
     assert main(args) == 0
     curve = json.loads((out / "curve.json").read_text())
     assert curve["backend"] == "rllib" and curve["steps"] >= 8000
@@ -217,7 +218,7 @@ def test_local_training_writes_a_policy_that_evaluate_reads(local_ray, tmp_path,
         f"policy_step_{rows[i]['decisions']}.{ext}" for i in (1, 3) for ext in
         ("json", "safetensors")]
     # The exported file reproduces the run's final evaluation exactly.
-    config = load_config("low", None, {"eval_episodes": 64})
+    config = load_config("low", None, {"eval.episodes": 64})
     again = stages.evaluate(config, load_policy(out / "policy"))
     assert again == {k: v for k, v in curve["final"].items() if k in again}
     spec = json.loads((out / "policy.json").read_text())
@@ -231,8 +232,8 @@ def test_local_training_writes_a_policy_that_evaluate_reads(local_ray, tmp_path,
 def test_multi_agent_stages_count_decisions_of_both_players(local_ray, tmp_path, stage):
     from rallysim.rllib.runner import train_stage_rllib
 
-    small = {"n_envs": 8, "n_steps": 64, "batch_size": 256, "decisions": 1024,
-             "eval_episodes": 4}
+    small = {"ppo.n_envs": 8, "ppo.n_steps": 64, "ppo.batch_size": 256, "budget": 1024,
+             "eval.episodes": 4}
     if stage == "high":
         small["low_policy"] = "scripted"
     config = load_config(stage, None, small)

@@ -31,8 +31,8 @@ RAY = str(Path(sys.executable).with_name("ray"))
 # Budget and settings measured to rise reliably: the last iterations' mean episode reward is
 # 0.5-0.75 against 0.02-0.05 at the start (a random policy rarely hits the serve).
 DECISIONS = 100_000
-SETTINGS = ["n_envs=32", "n_steps=64", "batch_size=512", "anneal_lr=false", "eval_episodes=200",
-            "checkpoint_every=1000000"]
+SETTINGS = ["ppo.n_envs=32", "ppo.n_steps=64", "ppo.batch_size=512", "ppo.anneal_lr=false",
+            "eval.episodes=200", "checkpoint_every=1000000"]
 
 
 def free_ports(n: int) -> list[int]:
@@ -123,7 +123,7 @@ def test_low_level_trains_across_two_nodes(two_node_cluster, tmp_path):
     # process (this one may already have run a local Ray for other tests).
     run = subprocess.run(
         [str(Path(sys.executable).with_name("rallysim")), "train", "low", "--backend", "rllib",
-         "--address", address, "--env-runners", "2", "--decisions", str(DECISIONS),
+         "--address", address, "--env-runners", "2", "--budget", str(DECISIONS),
          "--seed", "0", "--out", str(out), "--quiet", "--set", *SETTINGS],
         capture_output=True, text=True, env=env, timeout=600)
     assert run.returncode == 0, run.stderr[-3000:]

@@ -23,10 +23,10 @@ from rallysim.train.sb3_vec import NativeVecEnv
 from rallysim.train.stages import make_env
 
 SMOKE_DECISIONS = 98_304  # 48 updates, about 7 s on two cores
-SMOKE = load_config("low", None, {"n_envs": 32, "n_steps": 64, "batch_size": 512,
-                                  "n_epochs": 10, "eval_episodes": 256, "eval_every": 0,
-                                  "anneal_lr": False, "decisions": SMOKE_DECISIONS,
-                                  "checkpoint_every": 10**9})
+SMOKE = load_config("low", None, {"ppo": {"n_envs": 32, "n_steps": 64, "batch_size": 512,
+                                          "n_epochs": 10, "anneal_lr": False},
+                                  "eval": {"episodes": 256, "every": 0},
+                                  "budget": SMOKE_DECISIONS, "checkpoint_every": 10**9})
 
 
 def deterministic(model):
@@ -86,8 +86,8 @@ def test_adapter_truncation_is_flagged():
 
 def test_smoke_training_improves_over_untrained_policy(tmp_path):
     untrained = PPO("MlpPolicy", make_env(SMOKE), seed=0, device="cpu", **SMOKE.ppo_kwargs())
-    before = evaluate_return(deterministic(untrained), episodes=SMOKE.eval_episodes,
-                             seed=SMOKE.eval_seed)
+    before = evaluate_return(deterministic(untrained), episodes=SMOKE.eval.episodes,
+                             seed=SMOKE.eval.seed)
     stats = train_stage(SMOKE, tmp_path / "a", progress=False)
     after = stats["final"]
     assert stats["steps"] == SMOKE_DECISIONS
@@ -97,7 +97,7 @@ def test_smoke_training_improves_over_untrained_policy(tmp_path):
     assert after["hit_rate"] > before.hit_rate + 0.5
 
     # Seeded runs are deterministic.
-    short = load_config("low", None, {**SMOKE.to_dict(), "decisions": 4096})
+    short = load_config("low", None, {**SMOKE.to_dict(), "budget": 4096})
     first = train_stage(short, tmp_path / "b", progress=False)
     again = train_stage(short, tmp_path / "c", progress=False)
     assert again["final"]["mean_reward"] == first["final"]["mean_reward"]
@@ -137,9 +137,9 @@ def test_warm_started_training_is_bit_identical_per_seed(tmp_path):
 
     def run(seed: int, name: str) -> str:
         config = load_config("low", None, {
-            "seed": seed, "warm_start": "scripted", "warm_start_decisions": 4096,
-            "warm_start_epochs": 2, "n_envs": 32, "n_steps": 16, "batch_size": 256,
-            "decisions": 2048, "eval_every": 0, "eval_episodes": 16,
+            "seed": seed, "warm_start.teacher": "scripted", "warm_start.decisions": 4096,
+            "warm_start.epochs": 2, "ppo.n_envs": 32, "ppo.n_steps": 16,
+            "ppo.batch_size": 256, "budget": 2048, "eval.every": 0, "eval.episodes": 16,
             "checkpoint_every": 1024})
         curve = train_stage(config, tmp_path / name, progress=False)
         assert curve["warm_start"]["samples"] > 0

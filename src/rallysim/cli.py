@@ -357,6 +357,8 @@ def _require_ray_extra() -> None:
 def _train(args: argparse.Namespace) -> int:
     """Train one stage (low, high, mono) with Stable-Baselines3 PPO (resumable) or, with
     ``--backend rllib``, with RLlib PPO on a Ray cluster."""
+    import warnings
+
     rllib = args.backend == "rllib"
     if not rllib and (args.address or args.env_runners is not None):
         raise UsageError("--address and --env-runners need --backend rllib")
@@ -364,17 +366,32 @@ def _train(args: argparse.Namespace) -> int:
         _require_ray_extra()
     else:
         _require_train_extra()
-    from rallysim.train.config import load_config, parse_overrides
+    from rallysim.train.config import RenamedSetting, load_config, parse_overrides
+    from rallysim.train.players import PLAYERS
 
     overrides = parse_overrides(args.set)
-    for key in ("decisions", "seed", "shuttle", "low_policy", "env"):
+    for key in ("budget", "seed", "shuttle", "low_policy", "player"):
         value = getattr(args, key, None)
         if value is not None:
             overrides[key] = value
-    config = load_config(args.stage, args.config, overrides)
-    tag = f"{args.stage}_humanlike" if config.env == "humanlike" else args.stage
-    out = Path(args.out or f"runs/{tag}_seed{config.seed}")
+    # old setting names in --set or --config load with a warning each: said in one line
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", DeprecationWarning)
+        config = load_config(args.stage, args.config, overrides)
+    renamed: dict[str, str] = {}
+    for warning in caught:
+        if isinstance(warning.message, RenamedSetting):
+            renamed[warning.message.old] = warning.message.new
+        else:
+            warnings.showwarning(warning.message, warning.category, warning.filename,
+                                 warning.lineno)
+    notes = list(args.deprecated)
+    if renamed:
+        notes.append("old setting names are deprecated (same effect): " + ", ".join(
+            f"{old} -> {new}" for old, new in renamed.items()))
+    out = Path(args.out or PLAYERS[config.player].run_folder(args.stage, config.seed))
     _require(out, "dir")  # the default folder is only known now
+    _say_deprecated("train", notes)
     if rllib:
         from rallysim.rllib.runner import train_stage_rllib
 
@@ -387,8 +404,9 @@ def _train(args: argparse.Namespace) -> int:
         from rallysim.train.runner import train_stage
 
         curve = train_stage(config, out, resume=not args.restart, progress=not args.quiet)
-    print(f"{args.stage}: {curve['steps']:,} steps in {curve['train_wall_s']:.0f} s "
-          f"({curve['steps_per_s']:,.0f}/s); policy written to {out / 'policy.safetensors'}")
+    print(f"{args.stage}: {curve['steps']:,} {config.budget_unit} in "
+          f"{curve['train_wall_s']:.0f} s ({curve['steps_per_s']:,.0f}/s); policy written to "
+          f"{out / 'policy.safetensors'}")
     return 0
 
 
@@ -422,49 +440,84 @@ def _losses_line(name: str, s: dict) -> str:
             f"per later hit {pct('later_miss_rate', 2)}")
 
 
+def _evaluate_humanlike(args: argparse.Namespace) -> dict:
+    """A HUMAN-LIKE low level on fresh serves and the 3-D rally it plays."""
+    from rallysim.eval.humanlike_eval import evaluate_humanlike_player
+
+    if args.cap != 50:
+        raise UsageError("--cap applies to SIMPLE rallies only")
+    _say_deprecated("evaluate", args.deprecated)
+    results = evaluate_humanlike_player(args.low, args.high or "pretrained", args.episodes,
+                                        args.rallies, args.seeds, args.shuttle)
+    r, t = results["returns"], results["targets"]
+    print(f"low level {args.low}: {r['episodes']} serves, hit rate {r['hit_rate']:.3f} "
+          f"(target >= {t['hit_rate']}), mean angle error {r['mean_angle_error']:.2f} deg "
+          f"(<= {t['mean_angle_error']}), median {r['median_angle_error']:.2f} deg, mean "
+          f"|speed error| {r['mean_abs_speed_error']:.3f} (<= {t['mean_abs_speed_error']})")
+    print(_rally_line(f"rally, {results['policies']['high']} goals", results["rally"])
+          + f"  (target mean >= {t['mean_rally']:g})")
+    return results
+
+
+def _evaluate_simple(args: argparse.Namespace) -> dict:
+    """HRL, Random High-level and Monolithic on SIMPLE rallies."""
+    from rallysim.eval.compare import evaluate_methods
+    from rallysim.policies.resolve import high_level_policy, low_level_policy, mono_policy
+    from rallysim.train.progress import Heartbeat, progress_lines
+
+    # a bad policy name or file fails here, before the long work
+    low_level_policy(args.low), high_level_policy(args.high or "pretrained")
+    mono_policy(args.mono)
+    _say_deprecated("evaluate", args.deprecated)
+    say = progress_lines()
+    beat = None if say is None else Heartbeat("[evaluate]", 3 * args.seeds, say,
+                                              unit="rally sets")
+    with beat or contextlib.nullcontext():
+        results = evaluate_methods(args.low, args.high or "pretrained", args.mono,
+                                   rallies=args.rallies, seeds=args.seeds,
+                                   shuttle=args.shuttle, cap=args.cap, beat=beat)
+    for method, s in results["methods"].items():
+        print(_rally_line(method, s))
+    for method, s in results["methods"].items():
+        print(_losses_line(method, s))
+    return results
+
+
+# what `rallysim evaluate --player P` evaluates
+_EVALUATIONS = {"simple": _evaluate_simple, "humanlike": _evaluate_humanlike}
+
+
 def _evaluate(args: argparse.Namespace) -> int:
     """Evaluate HRL, Random High-level and Monolithic (pretrained or given policies), or a
     HUMAN-LIKE low level and its 3-D rally."""
     import json
 
-    if args.env == "humanlike" and args.cap != 50:
-        raise UsageError("--cap applies to SIMPLE rallies only")
-    if args.env == "humanlike":
-        from rallysim.eval.humanlike_eval import evaluate_humanlike_player
-
-        results = evaluate_humanlike_player(args.low, args.high or "pretrained", args.episodes,
-                                            args.rallies, args.seeds, args.shuttle)
-        r, t = results["returns"], results["targets"]
-        print(f"low level {args.low}: {r['episodes']} serves, hit rate {r['hit_rate']:.3f} "
-              f"(target >= {t['hit_rate']}), mean angle error {r['mean_angle_error']:.2f} deg "
-              f"(<= {t['mean_angle_error']}), median {r['median_angle_error']:.2f} deg, mean "
-              f"|speed error| {r['mean_abs_speed_error']:.3f} (<= {t['mean_abs_speed_error']})")
-        print(_rally_line(f"rally, {results['policies']['high']} goals", results["rally"])
-              + f"  (target mean >= {t['mean_rally']:g})")
-    else:
-        from rallysim.eval.compare import evaluate_methods
-        from rallysim.policies.resolve import high_level_policy, low_level_policy, mono_policy
-        from rallysim.train.progress import Heartbeat, progress_lines
-
-        # a bad policy name or file fails here, before the long work
-        low_level_policy(args.low), high_level_policy(args.high or "pretrained")
-        mono_policy(args.mono)
-        say = progress_lines()
-        beat = None if say is None else Heartbeat("[evaluate]", 3 * args.seeds, say,
-                                                  unit="rally sets")
-        with beat or contextlib.nullcontext():
-            results = evaluate_methods(args.low, args.high or "pretrained", args.mono,
-                                       rallies=args.rallies, seeds=args.seeds,
-                                       shuttle=args.shuttle, cap=args.cap, beat=beat)
-        for method, s in results["methods"].items():
-            print(_rally_line(method, s))
-        for method, s in results["methods"].items():
-            print(_losses_line(method, s))
+    results = _EVALUATIONS[args.player](args)
     if args.json:
         Path(args.json).parent.mkdir(parents=True, exist_ok=True)
         Path(args.json).write_text(json.dumps(results, indent=1))
         print(f"every number written to {args.json}")
     return 0
+
+
+class _DeprecatedName(argparse.Action):
+    """An option's old name: sets the new option's value and leaves a note that the command
+    prints once its own checks pass (a user error stays one line)."""
+
+    def __init__(self, option_strings: list[str], dest: str, new: str, **kwargs) -> None:
+        self.new = new
+        super().__init__(option_strings, dest, **kwargs)
+
+    def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace,
+                 values: object, option_string: str | None = None) -> None:
+        setattr(namespace, self.dest, values)
+        namespace.deprecated = [*namespace.deprecated,
+                                f"{option_string} is deprecated: use {self.new} (same effect)"]
+
+
+def _say_deprecated(command: str, notes: list[str]) -> None:
+    for note in notes:
+        print(f"rallysim {command}: warning: {note}", file=sys.stderr)
 
 
 def _common(p: argparse.ArgumentParser) -> None:
@@ -492,20 +545,37 @@ def build_parser() -> argparse.ArgumentParser:
     _common(demo)
     demo.set_defaults(run=_demo)
 
-    train = sub.add_parser("train", help="train a stage with PPO (resumes an interrupted run)")
-    train.add_argument("stage", choices=("low", "high", "mono"))
+    # the stages, players and settings of training (light modules: no torch, SB3 or YAML)
+    from rallysim.train.config import settings_help
+    from rallysim.train.players import PLAYERS
+    from rallysim.train.stages import NAMES as stages
+
+    players = tuple(PLAYERS)
+    train = sub.add_parser("train", help="train a stage with PPO (resumes an interrupted run)",
+                           epilog=settings_help(),
+                           formatter_class=argparse.RawDescriptionHelpFormatter)
+    train.add_argument("stage", choices=stages)
     train.add_argument("--config", type=_in_file,
                        help="a YAML file of settings over the stage's defaults")
     train.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",
-                       help="settings over the config, e.g. n_envs=128 net_arch=[64,64]")
-    train.add_argument("--decisions", type=int, help="budget in steps (turns for high)")
+                       help="settings over the config, e.g. ppo.n_envs=128 "
+                            "ppo.net_arch=[64,64] eval.episodes=200 (all listed below)")
+    train.add_argument("--budget", type=int,
+                       help="budget in the stage's unit: decisions (low), turns (high), "
+                            "player-decisions (mono)")
+    train.add_argument("--decisions", type=int, dest="budget", action=_DeprecatedName,
+                       new="--budget", help="deprecated name of --budget")
     train.add_argument("--seed", type=_seed)
     train.add_argument("--shuttle", choices=tuple(SHUTTLE_MODELS))
-    train.add_argument("--env", choices=("simple", "humanlike"),
-                       help="the player of the low stage (default simple)")
+    train.add_argument("--player", choices=players,
+                       help="the player (default simple; humanlike: low and high stages)")
+    train.add_argument("--env", choices=players, dest="player", action=_DeprecatedName,
+                       new="--player", help="deprecated name of --player")
     train.add_argument("--low-policy", dest="low_policy",
                        help="high stage: frozen low level (path prefix, pretrained, scripted)")
-    train.add_argument("--out", type=_out_dir, help="run folder (default runs/STAGE_seedN)")
+    train.add_argument("--out", type=_out_dir,
+                       help="run folder (default runs/STAGE_seedN; HUMAN-LIKE: "
+                            "runs/STAGE_humanlike_seedN)")
     train.add_argument("--restart", action="store_true", help="ignore existing checkpoints")
     train.add_argument("--quiet", action="store_true", help="no progress bar")
     train.add_argument("--backend", choices=("sb3", "rllib"), default="sb3",
@@ -516,6 +586,7 @@ def build_parser() -> argparse.ArgumentParser:
     train.add_argument("--env-runners", dest="env_runners", type=_non_negative,
                        help="rllib: env runners, one CPU each, placed by Ray (default: 2 with "
                             "--address, else 0: the driver samples)")
+    train.set_defaults(deprecated=[])
     train.set_defaults(run=_train)
 
     repro = sub.add_parser("reproduce", help="the whole pipeline and the paper's Table VII")
@@ -534,10 +605,13 @@ def build_parser() -> argparse.ArgumentParser:
     repro.set_defaults(run=_reproduce)
 
     ev = sub.add_parser("evaluate", help="rally statistics of HRL, Random High-level, "
-                        "Monolithic; or of a HUMAN-LIKE low level (--env humanlike)")
-    ev.add_argument("--env", choices=("simple", "humanlike"), default="simple",
+                        "Monolithic; or of a HUMAN-LIKE low level (--player humanlike)")
+    ev.add_argument("--player", choices=players, default="simple",
                     help="humanlike: the low level's hit rate, angle and speed errors on "
                          "--episodes serves, and the 3-D rally it plays")
+    ev.add_argument("--env", choices=players, dest="player", action=_DeprecatedName,
+                    new="--player", help="deprecated name of --player")
+    ev.set_defaults(deprecated=[])
     ev.add_argument("--pretrained", action="store_true",
                     help="the shipped policies (the default for any policy not given)")
     ev.add_argument("--low", default="pretrained",

@@ -1,11 +1,13 @@
 """``TrainConfig`` -> RLlib ``PPOConfig`` (new API stack), the mapping written once.
 
-The table in ``docs/rllib.md`` lists every field. Where the two libraries differ by default,
-RLlib is set to behave as SB3 does: no KL penalty unless ``target_kl`` is set (RLlib adapts a
-penalty toward it; SB3 stops the update early), no clipping of the value loss, a separate
-critic network and a state-independent log-std started at ``log_std_init``. The rollout batch
-counts decisions: env steps for the low level, agent steps (turns, players' decisions) for the
-rallies, whose two players share one RLModule.
+The table in ``docs/rllib.md`` lists every field of the ``ppo`` section. Where the two libraries
+differ by default, RLlib is set to behave as SB3 does: no KL penalty unless ``ppo.target_kl`` is
+set (RLlib adapts a penalty toward it; SB3 stops the update early), no clipping of the value
+loss, a separate critic network and a state-independent log-std started at
+``ppo.log_std_init``. The rollout batch counts the stage's budget unit: env steps for the low
+level (decisions), agent steps for the multi-agent stages (turns, players' decisions), whose two
+players share one RLModule. The stage object (``rallysim.train.stages``) says which it is and
+what its env needs.
 """
 
 from __future__ import annotations
@@ -18,31 +20,27 @@ from ray.rllib.core.rl_module.rl_module import RLModuleSpec
 
 from rallysim.rllib.envs import ENV_NAMES, SHARED_MODULE, shared_module
 from rallysim.rllib.module import LOG_STD_INIT_KEY, RallyPPOTorchRLModule
+from rallysim.train import stages
 from rallysim.train.config import TrainConfig
-
-MULTI_AGENT_STAGES = ("high", "mono")
 
 
 def env_config(config: TrainConfig) -> dict[str, Any]:
     """What an env runner needs to rebuild the stage's env (plain values only)."""
-    out: dict[str, Any] = {"shuttle": config.shuttle}
-    if config.stage == "low":
-        out.update(env=config.env, incoming=config.incoming, keep_bodies=config.keep_bodies)
-    elif config.stage == "high":
-        out["low_policy"] = config.low_policy
-    return out
+    return stages.of(config).env_options(config)
 
 
 def model_config(config: TrainConfig) -> dict[str, Any]:
-    return {"fcnet_hiddens": list(config.net_arch), "fcnet_activation": config.activation,
+    ppo = config.ppo
+    return {"fcnet_hiddens": list(ppo.net_arch), "fcnet_activation": ppo.activation,
             "vf_share_layers": False, "free_log_std": True,
-            LOG_STD_INIT_KEY: config.log_std_init}
+            LOG_STD_INIT_KEY: ppo.log_std_init}
 
 
 def envs_per_runner(config: TrainConfig, env_runners: int) -> int:
-    """Envs each env runner steps: the config's ``n_envs`` shared out (at least one)."""
-    units = config.n_envs // 2 if config.stage == "mono" else config.n_envs
-    return max(1, units // max(1, env_runners))
+    """Envs each env runner steps: the config's ``ppo.n_envs`` slots as envs (a rally env
+    holds one slot per player), shared out (at least one)."""
+    envs = config.ppo.n_envs // stages.of(config).slots_per_env
+    return max(1, envs // max(1, env_runners))
 
 
 def build_ppo_config(config: TrainConfig, env_runners: int = 2,
@@ -53,10 +51,11 @@ def build_ppo_config(config: TrainConfig, env_runners: int = 2,
     cluster); 0 samples in the driver."""
     if env_runners < 0:
         raise ValueError(f"env_runners must be >= 0, got {env_runners}")
-    lr: Any = config.learning_rate
-    if config.anneal_lr:
-        lr = [[0, config.learning_rate], [config.decisions, 0.0]]
-    multi = config.stage in MULTI_AGENT_STAGES
+    ppo_settings = config.ppo
+    lr: Any = ppo_settings.learning_rate
+    if ppo_settings.anneal_lr:
+        lr = [[0, ppo_settings.learning_rate], [config.budget, 0.0]]
+    multi = stages.of(config).multi_agent
     spec = RLModuleSpec(module_class=RallyPPOTorchRLModule, model_config=model_config(config))
     ppo = (
         PPOConfig()
@@ -72,14 +71,14 @@ def build_ppo_config(config: TrainConfig, env_runners: int = 2,
             gym_env_vectorize_mode="vector_entry_point" if not multi else "sync",
         )
         .training(
-            lr=lr, gamma=config.gamma, lambda_=config.gae_lambda,
-            clip_param=config.clip_range, entropy_coeff=config.ent_coef,
-            vf_loss_coeff=config.vf_coef, vf_clip_param=float("inf"),
-            grad_clip=config.max_grad_norm, grad_clip_by="global_norm",
-            num_epochs=config.n_epochs, minibatch_size=config.batch_size,
-            train_batch_size_per_learner=config.n_envs * config.n_steps,
-            use_kl_loss=config.target_kl is not None,
-            kl_target=config.target_kl if config.target_kl is not None else 0.01,
+            lr=lr, gamma=ppo_settings.gamma, lambda_=ppo_settings.gae_lambda,
+            clip_param=ppo_settings.clip_range, entropy_coeff=ppo_settings.ent_coef,
+            vf_loss_coeff=ppo_settings.vf_coef, vf_clip_param=float("inf"),
+            grad_clip=ppo_settings.max_grad_norm, grad_clip_by="global_norm",
+            num_epochs=ppo_settings.n_epochs, minibatch_size=ppo_settings.batch_size,
+            train_batch_size_per_learner=ppo_settings.n_envs * ppo_settings.n_steps,
+            use_kl_loss=ppo_settings.target_kl is not None,
+            kl_target=ppo_settings.target_kl if ppo_settings.target_kl is not None else 0.01,
         )
         .debugging(seed=config.seed)
     )

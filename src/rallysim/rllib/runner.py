@@ -10,32 +10,35 @@ same evaluations, same policy files). What a run leaves in ``out_dir``:
 | ``policy.{safetensors,json}`` | the final deterministic actor (``rallysim.policies.mlp``) |
 | ``curve.json`` | per-iteration training returns and throughput, evaluations, env runner nodes |
 
-Unlike the SB3 path a run does not resume: RLlib's own checkpoints are pickles, which RallySim
-never loads, and ``policy_step_*`` holds the actor alone (no critic, no optimiser), so an
-interrupted run starts again. ``curve.json`` is written last and in one step (renamed into
-place, ``rallysim.train.checkpoint.atomic_write``), as by the SB3 path: a run killed before it
-leaves none.
+The record (``config.yaml``, the curve, ``curve.json``, the evaluation and checkpoint
+schedule, progress lines in the stage's budget unit) is kept by ``rallysim.train.run_log``, as
+in the SB3 path. Unlike the SB3 path a run does not resume: RLlib's own checkpoints are
+pickles, which RallySim never loads, and ``policy_step_*`` holds the actor alone (no critic, no
+optimiser), so an interrupted run starts again. ``curve.json`` is written last and in one step,
+as by the SB3 path: a run killed before it leaves none.
 """
 
 from __future__ import annotations
 
-import json
 import logging
 import math
 import os
-import sys
-import time
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
 from rallysim.rllib import require_ray
-from rallysim.train.checkpoint import atomic_write, json_default
+from rallysim.train import stages
 from rallysim.train.config import TrainConfig
+from rallysim.train.players import PLAYERS
+from rallysim.train.progress import say_stderr
+from rallysim.train.run_log import RunLog
 
 BACKEND = "rllib"
+# the players whose stages the RLlib env adapters (rallysim.rllib.envs) build
+RLLIB_PLAYERS: dict[str, tuple[str, ...]] = {"low": ("simple", "humanlike"),
+                                             "high": ("simple",), "mono": ("simple",)}
 
 
 def connect(address: str | None, env_runners: int) -> bool:
@@ -69,9 +72,10 @@ def env_runner_nodes(algo: Any) -> list[str]:
 
 
 def _decisions(config: TrainConfig, runners: dict[str, Any]) -> int:
-    """Decisions sampled so far: env steps (low), agent steps (a turn or a player's decision)."""
-    key = "num_env_steps_sampled_lifetime" if config.stage == "low" else (
-        "num_agent_steps_sampled_lifetime")
+    """Units of the budget sampled so far: env steps (single-agent: decisions), agent steps
+    (multi-agent: turns or players' decisions)."""
+    key = ("num_agent_steps_sampled_lifetime" if stages.of(config).multi_agent
+           else "num_env_steps_sampled_lifetime")
     value = runners.get(key, 0)
     if isinstance(value, dict):  # per agent
         value = sum(value.values())
@@ -81,7 +85,7 @@ def _decisions(config: TrainConfig, runners: dict[str, Any]) -> int:
 def _episode_return(config: TrainConfig, runners: dict[str, Any]) -> float:
     """Mean return of the episodes finished this iteration; per player for the rallies (as a
     slot's return in the SB3 path)."""
-    if config.stage == "low":
+    if not stages.of(config).multi_agent:
         return float(runners.get("episode_return_mean", math.nan))
     per_agent = runners.get("agent_episode_returns_mean") or {}
     return float(np.mean(list(per_agent.values()))) if per_agent else math.nan
@@ -99,79 +103,46 @@ def module_policy(module: Any) -> Any:
 
 
 class _Run:
-    """One training run's bookkeeping: progress lines, evaluations, exports, the curve."""
+    """One training run: RLlib's iterations, with the record kept by the shared ``RunLog``
+    (evaluations, exports, the curve, progress lines)."""
 
-    def __init__(self, config: TrainConfig, out: Path, algo: Any, progress: bool,
-                 env_runners: int) -> None:
+    def __init__(self, algo: Any, log: RunLog) -> None:
         from rallysim.rllib.envs import SHARED_MODULE
 
-        self.config, self.out, self.algo, self.progress = config, out, algo, progress
-        self.module_id = SHARED_MODULE if config.stage != "low" else None
-        self.curve: dict[str, Any] = {"stage": config.stage, "backend": BACKEND,
-                                      "env_runners": env_runners, "evals": [],
-                                      "iterations": []}
+        self.algo, self.log, self.config = algo, log, log.config
+        self.module_id = SHARED_MODULE if log.stage.multi_agent else None
         self.decisions = 0
-        self.eval_wall = 0.0
-        self.start = time.perf_counter()
-        every = config.eval_every or math.inf
-        self.next_eval = every
-        self.next_ckpt = config.checkpoint_every
 
     def module(self) -> Any:
         return self.algo.get_module(self.module_id) if self.module_id else self.algo.get_module()
 
-    def train_wall(self) -> float:
-        return time.perf_counter() - self.start - self.eval_wall
-
-    def say(self, message: str) -> None:
-        if self.progress:
-            print(message, file=sys.stderr, flush=True)
-
     def iterate(self) -> None:
+        log = self.log
         result = self.algo.train()
         runners = result.get("env_runners", {})
         self.decisions = _decisions(self.config, runners)
-        wall = self.train_wall()
+        wall = log.train_wall()
         row = {"iteration": int(result["training_iteration"]), "decisions": self.decisions,
                "wall_s": round(wall, 2), "ep_rew_mean": _episode_return(self.config, runners)}
-        self.curve["iterations"].append(row)
-        self.say(f"[{self.config.stage} rllib] iter {row['iteration']:4d}  decisions "
-                 f"{self.decisions:>10,}/{self.config.decisions:,}  ep_rew "
-                 f"{row['ep_rew_mean']:7.3f}  {self.decisions / max(wall, 1e-9):8,.0f} "
-                 f"decisions/s")
-        if self.decisions >= self.next_eval:
+        log.record_update(row)
+        log.line(f"iter {row['iteration']:4d}  {log.unit} {self.decisions:>10,}/"
+                 f"{self.config.budget:,}  ep_rew {row['ep_rew_mean']:7.3f}  "
+                 f"{self.decisions / max(wall, 1e-9):8,.0f} {log.unit}/s")
+        if log.eval_due(self.decisions):
             self.evaluate()
-            while self.next_eval <= self.decisions:
-                self.next_eval += self.config.eval_every
-        if self.decisions >= self.next_ckpt:
-            self.export(self.out / "checkpoints" / f"policy_step_{self.decisions}", None)
-            while self.next_ckpt <= self.decisions:
-                self.next_ckpt += self.config.checkpoint_every
+        if log.checkpoint_due(self.decisions):
+            self.export(log.out / "checkpoints" / f"policy_step_{self.decisions}", None)
 
     def evaluate(self) -> dict[str, Any]:
-        from rallysim.train import stages
-
-        t = time.perf_counter()
-        result = stages.evaluate(self.config, module_policy(self.module()))
-        row = {"steps": self.decisions, "wall_s": round(self.train_wall(), 2), **result}
-        self.eval_wall += time.perf_counter() - t
-        self.curve["evals"].append(row)
-        self.say(f"[{self.config.stage} rllib] {self.decisions:>10,} decisions: "
-                 + stages.headline(self.config, result))
-        return row
+        return self.log.evaluate(self.decisions, module_policy(self.module()))
 
     def export(self, prefix: Path, final: dict[str, Any] | None) -> None:
         from rallysim.rllib.export import export_module
-        from rallysim.train import stages
 
-        meta = {"stage": self.config.stage, "seed": self.config.seed, "steps": self.decisions,
-                "backend": BACKEND, "env_runners": self.curve["env_runners"],
-                "config": self.config.to_dict()}
-        if final is not None:
-            meta["final"] = final
-        if (mapping := stages.goal_mapping(self.config)) is not None:
-            meta["goal_mapping"] = mapping
-        export_module(self.module(), prefix, env_id=stages.export_env(self.config),
+        log = self.log
+        meta = log.policy_metadata(self.decisions, final, {
+            "backend": BACKEND, "env_runners": log.curve["env_runners"]})
+        export_module(self.module(), prefix, env_id=log.stage.export_env(self.config),
                       metadata=meta)
 
 
@@ -182,9 +153,9 @@ def train_stage_rllib(config: TrainConfig, out_dir: str | Path, address: str | N
 
     ``address``: a running Ray cluster (``"auto"`` or ``HOST:PORT``; every node needs RallySim
     installed); ``None`` starts a local Ray for this run."""
-    if config.env == "humanlike" and config.stage != "low":
-        raise ValueError("the RLlib backend trains the HUMAN-LIKE low level only; train its "
-                         "high level with --backend sb3")
+    if config.player not in RLLIB_PLAYERS[config.stage]:
+        raise ValueError(f"the RLlib backend does not train the {PLAYERS[config.player].label} "
+                         f"player's {config.stage} stage; train it with --backend sb3")
     require_ray()
     import ray
     import torch
@@ -202,29 +173,24 @@ def train_stage_rllib(config: TrainConfig, out_dir: str | Path, address: str | N
     try:
         register_rllib_envs()
         algo = build_ppo_config(config, env_runners).build_algo()
-        doc = {**config.to_dict(), "backend": BACKEND, "env_runners": env_runners,
-               "address": address}
-        (out / "config.yaml").write_text(yaml.safe_dump(doc, sort_keys=False))
-        run = _Run(config, out, algo, progress, env_runners)
-        run.curve["env_runner_nodes"] = env_runner_nodes(algo)
-        run.curve["cluster_nodes"] = sorted(n["NodeID"] for n in ray.nodes() if n["Alive"])
-        run.say(f"[{config.stage} rllib] {env_runners} env runner(s) on "
-                f"{len(set(run.curve['env_runner_nodes']))} node(s) of "
-                f"{len(run.curve['cluster_nodes'])}")
-        run.start = time.perf_counter()
-        while run.decisions < config.decisions:
+        log = RunLog(config, out, "iterations", label=f"[{config.stage} rllib seed "
+                     f"{config.seed}]", say=say_stderr if progress else None,
+                     extra={"backend": BACKEND, "env_runners": env_runners})
+        log.write_config({"backend": BACKEND, "env_runners": env_runners, "address": address})
+        run = _Run(algo, log)
+        log.curve["env_runner_nodes"] = env_runner_nodes(algo)
+        log.curve["cluster_nodes"] = sorted(n["NodeID"] for n in ray.nodes() if n["Alive"])
+        log.line(f"{env_runners} env runner(s) on {len(set(log.curve['env_runner_nodes']))} "
+                 f"node(s) of {len(log.curve['cluster_nodes'])}")
+        log.start_clock()
+        while run.decisions < config.budget:
             run.iterate()
-        evals = run.curve["evals"]
-        final = (evals[-1] if evals and evals[-1]["steps"] == run.decisions
-                 else run.evaluate())
-        curve = run.curve
-        curve["final"] = final
-        curve["steps"] = run.decisions
-        curve["train_wall_s"] = round(run.train_wall(), 2)
-        curve["steps_per_s"] = round(curve["steps"] / max(curve["train_wall_s"], 1e-9), 1)
+        final = log.evaluation_at(run.decisions)
+        if final is None:
+            final = run.evaluate()
+        curve = log.finish(final, run.decisions)
         run.export(out / "policy", final)
-        atomic_write(out / "curve.json",
-                     json.dumps(curve, indent=1, default=json_default).encode(), "curve")
+        log.write_curve()
         return curve
     finally:
         if algo is not None:

@@ -1,7 +1,14 @@
 """Training on RallySim's envs (needs the learning extras: torch, stable-baselines3, safetensors).
 
 - ``rallysim.train.runner.train_stage``: one stage (low, high, mono) with PPO, checkpoints,
-  resume, evaluations and the exported policy; ``rallysim.train.config`` its settings.
+  resume, evaluations and the exported policy.
+- ``rallysim.train.config``: ``TrainConfig`` (top-level settings and the ``ppo``,
+  ``warm_start`` and ``eval`` sections of ``rallysim.train.sections``) and ``load_config``.
+- ``rallysim.train.stages``: the stages as objects (``LOW``, ``HIGH``, ``MONO``): env factory,
+  evaluation, export, budget unit, and a table of what each player changes;
+  ``rallysim.train.players`` the players' names.
+- ``rallysim.train.run_log``: a run's record (config.yaml, curve.json, schedule, progress
+  lines), shared by the SB3 and RLlib (``rallysim.rllib``) runners.
 - ``rallysim.train.sb3_vec.NativeVecEnv``: SB3 ``VecEnv`` over a natively batched vector env.
 - ``rallysim.train.export``: ``save_policy`` (safetensors + JSON, no pickle; loaded by
   ``rallysim.policies.mlp.load_policy``) over ``write_policy``, which the RLlib backend

@@ -298,10 +298,13 @@ def read_json(path: Path) -> dict[str, Any]:
 def read_pair(path: Path, form: str, versions: tuple[int, ...],
               check: Callable[[dict[str, Any], Path], None] | None = None,
               expect: dict[str, Any] | None = None,
+              upgrade: Callable[[dict[str, Any]], dict[str, Any]] | None = None,
               ) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     """Load and verify a JSON + tensor file pair written by ``write_pair``: its format, its
     fields (``check`` raises on a bad one), the JSON's checksum, the ``expect``ed fields, the
-    tensors' checksum. ``CheckpointMismatch`` when only ``expect`` fails."""
+    tensors' checksum. ``CheckpointMismatch`` when only ``expect`` fails. ``upgrade``: the
+    checksummed fields as the current version names them (older writers' names replaced),
+    before they are compared with ``expect``."""
     from safetensors.numpy import load
 
     path = Path(path)
@@ -324,6 +327,8 @@ def read_pair(path: Path, form: str, versions: tuple[int, ...],
         if meta_digest(doc) != recorded:
             raise CheckpointError(f"checkpoint {path} is corrupted: its fields' SHA-256 differs "
                                   "from the one recorded in field meta_sha256")
+    if upgrade is not None:
+        doc = upgrade(doc)
     for key, value in (expect or {}).items():
         if plain_json(doc.get(key)) != plain_json(value):
             raise CheckpointMismatch(f"checkpoint {path} was made with {key}={doc.get(key)!r}, "
@@ -382,11 +387,21 @@ def _check_ppo(doc: dict[str, Any], path: Path) -> None:
         require(curve, "warm_start", dict, path, "curve.")
 
 
+def upgrade_ppo(doc: dict[str, Any]) -> dict[str, Any]:
+    """A PPO checkpoint's fields as this version names them: the network's ``env`` (the
+    player, before the setting was named ``player``) becomes ``player``."""
+    network = doc["network"]
+    if "env" in network and "player" not in network:
+        network = {("player" if key == "env" else key): value for key, value in network.items()}
+        doc = {**doc, "network": network}
+    return doc
+
+
 def read_checkpoint(path: Path, expect: dict[str, Any] | None = None,
                     ) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     """Load and verify a checkpoint; ``expect`` lists JSON fields that must match (e.g. the
     stage and the network). Raises ``CheckpointError`` naming the file and the field."""
-    return read_pair(path, FORMAT, READABLE_VERSIONS, _check_ppo, expect)
+    return read_pair(path, FORMAT, READABLE_VERSIONS, _check_ppo, expect, upgrade_ppo)
 
 
 def checkpoints(folder: Path, pattern: re.Pattern[str] = _NAME) -> list[Path]:

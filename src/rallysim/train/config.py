@@ -1,30 +1,50 @@
-"""Training configuration: one dataclass, defaults per stage in ``configs/{stage}.yaml``.
+"""Training configuration: ``TrainConfig``, its top-level settings and three sections (``ppo``,
+``warm_start``, ``eval``: ``rallysim.train.sections``), with defaults per stage in
+``configs/{stage}.yaml``.
 
 Precedence: the stage's packaged YAML < the player's packaged YAML for that stage
-(``configs/{stage}_humanlike.yaml``, HUMAN-LIKE only) < a user's YAML (``--config``) <
-``--set key=value``.
+(``configs/{stage}_{player}.yaml``, where one exists) < a user's YAML (``--config``) <
+``--set KEY=VALUE``.
+
+A setting is named by its field, with its section before a dot: ``budget``, ``ppo.n_envs``,
+``warm_start.dagger``. A YAML file may nest the sections (``ppo: {n_envs: 128}``) or write dotted
+keys. The names from before the sections (``env``, ``decisions``, ``n_envs``,
+``warm_start_dagger``, ``eval_episodes``, ...) still load, with a ``DeprecationWarning`` naming
+the new one, so older YAML files, run records and shipped policies' metadata keep working.
 """
 
 from __future__ import annotations
 
-import math
-from collections.abc import Callable
-from dataclasses import asdict, dataclass, fields, replace
+import difflib
+import warnings
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
-from typing import Any, get_type_hints
-
-import yaml
+from typing import Any
 
 from rallysim.core.shuttle import SHUTTLE_MODELS
+from rallysim.train import stages, values
+from rallysim.train.players import DEFAULT_PLAYER, PLAYERS
+from rallysim.train.sections import SECTIONS, EvalSettings, PPOSettings, WarmStartSettings
+from rallysim.train.values import SEED, SEED_MAX, Bound, at_least
 
-STAGES = ("low", "high", "mono")
+__all__ = ["CONFIG_DIR", "INCOMING", "SEED_MAX", "STAGES", "RenamedSetting", "TrainConfig",
+           "load_config", "parse_overrides", "setting_names"]
+
+STAGES = stages.NAMES
 CONFIG_DIR = Path(__file__).parent / "configs"
 # the low stage's ``incoming`` values; a copy of envs.simple_return_v0.INCOMING (a test keeps
 # them equal) because importing the environment here would load MuJoCo for every config read
 INCOMING = ("serve", "mixed", "rally")
-# seeds feed numpy's legacy seeding (below 2**32) after offsets such as the evaluation's
-# + 1_000_003; the int32 range leaves room for those
-SEED_MAX = 2**31 - 1
+BUDGET_UNIT = "budget_unit"  # written beside the budget; read back only to check it
+
+
+class RenamedSetting(DeprecationWarning):
+    """A setting given by its name from before the sections (``old``; now ``new``)."""
+
+    def __init__(self, old: str, new: str) -> None:
+        super().__init__(f"setting {old!r} is deprecated: use {new!r}")
+        self.old, self.new = old, new
 
 
 @dataclass(frozen=True)
@@ -32,35 +52,14 @@ class TrainConfig:
     """Everything that shapes one PPO training run of one stage."""
 
     stage: str = "low"
-    env: str = "simple"  # the player, "simple" or "humanlike" (low and high stages)
+    player: str = DEFAULT_PLAYER  # "simple" or "humanlike" (low and high stages)
     shuttle: str = "paper"
-    decisions: int = 3_000_000  # budget, in SB3 steps (decisions; turns for the high level)
-    # (0 with a warm start: the clone alone, no PPO)
+    # in the stage's unit (``budget_unit``): decisions (low), turns (high), player-decisions
+    # (mono); 0 with a warm start: the clone alone, no PPO
+    budget: int = 3_000_000
     seed: int = 0
-    # rollout and update (SB3 PPO)
-    n_envs: int = 64
-    n_steps: int = 64
-    batch_size: int = 1024
-    n_epochs: int = 10
-    target_kl: float | None = None
-    learning_rate: float = 3e-4
-    anneal_lr: bool = False  # decay the learning rate linearly to 0 over the budget
-    gamma: float = 0.99
-    gae_lambda: float = 0.95
-    clip_range: float = 0.2
-    ent_coef: float = 0.0
-    vf_coef: float = 0.5
-    max_grad_norm: float = 0.5
-    # networks (SPEC §8: tanh MLP 64x64 actor and critic, log-std initialised at -0.5)
-    net_arch: tuple[int, ...] = (64, 64)
-    activation: str = "tanh"
-    log_std_init: float = -0.5
-    # machinery
+    checkpoint_every: int = 250_000  # budget units between checkpoints
     torch_threads: int = 1
-    eval_every: int = 500_000  # SB3 steps between evaluations (0: only at the end)
-    eval_episodes: int = 500  # episodes (low) or rallies (high, mono) per evaluation
-    eval_seed: int = 12345
-    checkpoint_every: int = 250_000
     # high stage: the frozen low level (path prefix, pretrained or scripted; HUMAN-LIKE: also
     # "scripted" for AimedSwing)
     low_policy: str = "pretrained"
@@ -68,200 +67,225 @@ class TrainConfig:
     # state from one episode to the next (the original builds) instead of a random start
     incoming: str = "serve"
     keep_bodies: bool = False
-    # low stage, not the paper's method: fit the actor to the scripted controller first
-    # (behaviour cloning over warm_start_decisions of its play), then PPO as usual
-    warm_start: str = "none"
-    warm_start_decisions: int = 524_288
-    warm_start_epochs: int = 60
-    warm_start_log_std: float = -1.5
-    warm_start_dagger: int = 0  # rounds of DAgger after the clone (a quarter of the data each)
-    warm_start_batch_size: int = 4096
-    warm_start_lr_decay: bool = False  # cosine decay of the clone's learning rate
+    ppo: PPOSettings = field(default_factory=PPOSettings)
+    warm_start: WarmStartSettings = field(default_factory=WarmStartSettings)
+    eval: EvalSettings = field(default_factory=EvalSettings)
 
     def __post_init__(self) -> None:
-        # every value is checked here, so a bad one fails at construction (and at every
-        # ``replace``), naming the field, instead of deep inside SB3 or after hours of training
-        if isinstance(self.net_arch, list):  # as to_dict() writes it: keep the config hashable
-            object.__setattr__(self, "net_arch", tuple(self.net_arch))
-        for f in fields(self):
-            _check_type(f.name, _FIELD_KINDS[f.name], getattr(self, f.name))
-        for name, valid in _CHOICES.items():
-            if getattr(self, name) not in valid:
-                raise ValueError(f"{name} must be one of {', '.join(map(repr, valid))}, got "
-                                 f"{getattr(self, name)!r}")
-        if self.env == "humanlike" and self.stage == "mono":
-            raise ValueError("the HUMAN-LIKE player has low and high stages (no monolithic)")
-        # decisions = 0 with a warm start: the clone is the policy (no PPO after it)
-        floor = 0 if self.warm_start != "none" else 1
-        if self.decisions < floor:
-            raise ValueError(f"decisions must be >= {floor}, got {self.decisions}")
-        if self.n_envs * self.n_steps < 2:
-            raise ValueError(f"a rollout (n_envs x n_steps) needs at least 2 decisions, got "
-                             f"{self.n_envs} x {self.n_steps}")
-        for name, (ok, bounds) in _BOUNDS.items():
+        # every value is checked here (and in the sections), so a bad one fails at
+        # construction and at every ``replace``, naming the setting
+        for name, cls in SECTIONS.items():
             value = getattr(self, name)
-            if value is not None and not ok(value):
-                raise ValueError(f"{name} must be {bounds}, got {value!r}")
-        if any(width < 1 for width in self.net_arch):
-            raise ValueError(f"net_arch layer widths must be >= 1, got {list(self.net_arch)}")
-        if self.warm_start != "none" and self.stage != "low":
-            raise ValueError("warm_start applies to the low stage only")
-        if self.stage == "mono" and self.n_envs % 2:
-            raise ValueError("the mono stage needs an even n_envs (two players per rally)")
+            if isinstance(value, Mapping):  # as to_dict() writes it
+                object.__setattr__(self, name, _section(name, value))
+            elif not isinstance(value, cls):
+                raise ValueError(f"{name} must be a mapping of its settings, got {value!r}")
+        values.check_fields(self, "", _CHOICES, _BOUNDS)
+        stage = stages.by_name(self.stage)
+        trains = [s.name for s in stages.STAGES.values() if self.player in s.players]
+        if self.stage not in trains:
+            raise ValueError(f"the {PLAYERS[self.player].label} player has "
+                             f"{' and '.join(trains)} stages (no {stage.title})")
+        # budget = 0 with a warm start: the clone is the policy (no PPO after it)
+        floor = 0 if self.warm_start.enabled else 1
+        if self.budget < floor:
+            raise ValueError(f"budget ({stage.unit}) must be >= {floor}, got {self.budget}")
+        if self.warm_start.enabled and not stage.warm_starts:
+            starts = " and ".join(s.name for s in stages.STAGES.values() if s.warm_starts)
+            raise ValueError(f"warm_start applies to the {starts} stage only")
+        if self.ppo.n_envs % stage.slots_per_env:
+            raise ValueError(f"the {stage.name} stage needs ppo.n_envs divisible by "
+                             f"{stage.slots_per_env} (one slot per rally-player pair), got "
+                             f"{self.ppo.n_envs}")
+
+    @property
+    def budget_unit(self) -> str:
+        """What one unit of ``budget`` is for this stage (one SB3 step)."""
+        return stages.by_name(self.stage).unit
 
     def network(self) -> dict[str, Any]:
         """What a checkpoint must share with the run that resumes it."""
-        return {"stage": self.stage, "env": self.env, "net_arch": list(self.net_arch),
-                "activation": self.activation, "shuttle": self.shuttle}
+        return {"stage": self.stage, "player": self.player, "net_arch": list(self.ppo.net_arch),
+                "activation": self.ppo.activation, "shuttle": self.shuttle}
 
     def ppo_kwargs(self) -> dict[str, Any]:
-        import torch
-
-        activation = {"tanh": torch.nn.Tanh, "relu": torch.nn.ReLU}[self.activation]
-        lr0 = self.learning_rate
-        learning_rate: Any = (lambda remaining: lr0 * remaining) if self.anneal_lr else lr0
-        return {
-            "n_steps": self.n_steps, "batch_size": self.batch_size, "n_epochs": self.n_epochs,
-            "target_kl": self.target_kl, "learning_rate": learning_rate,
-            "gamma": self.gamma, "gae_lambda": self.gae_lambda, "clip_range": self.clip_range,
-            "ent_coef": self.ent_coef, "vf_coef": self.vf_coef,
-            "max_grad_norm": self.max_grad_norm,
-            "policy_kwargs": {"net_arch": {"pi": list(self.net_arch), "vf": list(self.net_arch)},
-                              "activation_fn": activation, "log_std_init": self.log_std_init},
-        }
+        """Stable-Baselines3 ``PPO``'s keyword arguments (``PPOSettings.sb3_kwargs``)."""
+        return self.ppo.sb3_kwargs()
 
     def to_dict(self) -> dict[str, Any]:
+        """Plain values, sections nested, the budget's unit beside it (YAML and JSON records)."""
         d = asdict(self)
-        d["net_arch"] = list(self.net_arch)
-        return d
+        d["ppo"]["net_arch"] = list(self.ppo.net_arch)
+        out: dict[str, Any] = {}
+        for key, value in d.items():
+            out[key] = value
+            if key == "budget":
+                out[BUDGET_UNIT] = self.budget_unit
+        return out
 
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any], warn: bool = True) -> TrainConfig:
+        """A config from a record (``to_dict()``, a run's ``config.yaml``, a policy's metadata),
+        in the current layout or the flat one from before the sections. ``warn``: a
+        ``DeprecationWarning`` for every old name (off for records one cannot change)."""
+        return _build(_flatten(data, "the record", warn))
 
-def _at_least(low: float) -> tuple[Callable[[Any], bool], str]:
-    return (lambda v: v >= low), f">= {low:g}"
-
-
-def _above(low: float) -> tuple[Callable[[Any], bool], str]:
-    return (lambda v: v > low), f"> {low:g}"
-
-
-def _within(low: float, high: float) -> tuple[Callable[[Any], bool], str]:
-    return (lambda v: low <= v <= high), f"in [{low:g}, {high:g}]"
+    def __getattr__(self, name: str) -> Any:
+        # the flat names from before the sections (config.n_envs, config.decisions, ...)
+        new = LEGACY_KEYS.get(name)
+        if new is None:
+            raise AttributeError(f"'TrainConfig' object has no attribute {name!r}")
+        warnings.warn(f"TrainConfig.{name} is deprecated: use TrainConfig.{new}",
+                      DeprecationWarning, stacklevel=2)
+        value: Any = self
+        for part in new.split("."):
+            value = getattr(value, part)
+        return value
 
 
 _CHOICES: dict[str, tuple[str, ...]] = {
-    "stage": STAGES, "env": ("simple", "humanlike"), "shuttle": tuple(SHUTTLE_MODELS),
-    "activation": ("tanh", "relu"), "incoming": INCOMING, "warm_start": ("none", "scripted"),
+    "stage": STAGES, "player": tuple(PLAYERS), "shuttle": tuple(SHUTTLE_MODELS),
+    "incoming": INCOMING,
 }
-# the range of every bounded number (``decisions`` depends on warm_start: __post_init__);
-# a value of None (target_kl) means "off" and is not bounded
-_BOUNDS: dict[str, tuple[Callable[[Any], bool], str]] = {
-    "seed": (lambda v: 0 <= v <= SEED_MAX, f"in [0, {SEED_MAX}]"),
-    "eval_seed": (lambda v: 0 <= v <= SEED_MAX, f"in [0, {SEED_MAX}]"),
-    "n_envs": _at_least(1), "n_steps": _at_least(1),
-    # PPO normalises advantages over a minibatch, and over a rollout: both need two samples
-    "batch_size": _at_least(2),
-    "n_epochs": _at_least(1), "target_kl": _above(0), "learning_rate": _above(0),
-    # a discount or GAE lambda above 1 lets returns grow without bound
-    "gamma": _within(0, 1), "gae_lambda": _within(0, 1),
-    "clip_range": _above(0), "ent_coef": _at_least(0), "vf_coef": _at_least(0),
-    "max_grad_norm": _above(0), "torch_threads": _at_least(1),
-    "eval_every": _at_least(0),  # 0: evaluate only at the end
-    "eval_episodes": _at_least(1), "checkpoint_every": _at_least(1),
-    "warm_start_decisions": _at_least(1), "warm_start_epochs": _at_least(1),
-    "warm_start_dagger": _at_least(0), "warm_start_batch_size": _at_least(1),
+_BOUNDS: dict[str, Bound] = {"seed": SEED, "torch_threads": at_least(1),
+                             "checkpoint_every": at_least(1)}
+_TOP = tuple(f.name for f in fields(TrainConfig) if f.name not in SECTIONS)
+
+# every setting's dotted name -> its kind (values.kind_of), generated from the dataclasses
+KINDS: dict[str, str] = {
+    **{name: kind for name, kind in values.kinds(TrainConfig).items() if kind != "section"},
+    **{f"{section}.{name}": kind for section, cls in SECTIONS.items()
+       for name, kind in values.kinds(cls).items()},
 }
 
 
-def _kind(hint: Any) -> str:
-    """The check a field's annotation asks for: int, float, bool, str, float|None, widths."""
-    if hint in (int, float, bool, str):
-        return hint.__name__
-    if hint == float | None:
-        return "float|None"
-    if hint == tuple[int, ...]:
-        return "widths"
-    raise TypeError(f"TrainConfig has no check for the annotation {hint!r}")
+def setting_names() -> list[str]:
+    """Every setting ``--set`` and a YAML file accept, as dotted names."""
+    return list(KINDS)
 
 
-_FIELD_KINDS = {name: _kind(hint) for name, hint in get_type_hints(TrainConfig).items()}
+def settings_help() -> str:
+    """The settings by section, for ``rallysim train --help`` (generated from the fields)."""
+    import textwrap
+
+    groups = [", ".join(name for name in _TOP if name != "stage")]
+    for section in SECTIONS:
+        names = [key.partition(".")[2] for key in KINDS if key.startswith(f"{section}.")]
+        groups.append(f"{section}.{{{', '.join(names)}}}")
+    return "\n".join(["settings (--set KEY=VALUE, or keys of a --config YAML, where sections "
+                      "may nest):",
+                      *(textwrap.fill(g, 96, initial_indent="  ", subsequent_indent="    ")
+                        for g in groups)])
 
 
-def _check_type(name: str, kind: str, value: Any) -> None:
-    # bool is an int subclass in Python: True must not pass as n_envs=1
-    is_int = isinstance(value, int) and not isinstance(value, bool)
-    if kind == "int" and not is_int:
-        raise ValueError(f"{name} must be an integer, got {value!r}")
-    if kind in ("float", "float|None") and not (kind == "float|None" and value is None):
-        if not (is_int or isinstance(value, float)):
-            raise ValueError(f"{name} must be a number, got {value!r}")
-        if not math.isfinite(value):
-            raise ValueError(f"{name} must be finite, got {value!r}")
-    if kind == "bool" and not isinstance(value, bool):
-        raise ValueError(f"{name} must be true or false, got {value!r}")
-    if kind == "str" and not (isinstance(value, str) and value):
-        raise ValueError(f"{name} must be a non-empty string, got {value!r}")
-    if kind == "widths" and not (isinstance(value, tuple) and all(
-            isinstance(v, int) and not isinstance(v, bool) for v in value)):
-        shown = list(value) if isinstance(value, tuple) else value
-        raise ValueError(f"net_arch must be a list of integer layer widths, got {shown!r}")
+# The flat names from before the sections, a fixed list: new fields get no flat name.
+_OLD_PPO = ("n_envs", "n_steps", "batch_size", "n_epochs", "target_kl", "learning_rate",
+            "anneal_lr", "gamma", "gae_lambda", "clip_range", "ent_coef", "vf_coef",
+            "max_grad_norm", "net_arch", "activation", "log_std_init")
+_OLD_WARM = ("decisions", "epochs", "log_std", "dagger", "batch_size", "lr_decay")
+_OLD_EVAL = ("every", "episodes", "seed")
+LEGACY_KEYS: dict[str, str] = {
+    "env": "player", "decisions": "budget", "warm_start": "warm_start.teacher",
+    **{name: f"ppo.{name}" for name in _OLD_PPO},
+    **{f"warm_start_{name}": f"warm_start.{name}" for name in _OLD_WARM},
+    **{f"eval_{name}": f"eval.{name}" for name in _OLD_EVAL},
+}
 
 
-def _coerce(key: str, value: Any) -> Any:
-    """A value read from YAML or ``--set`` as its field's type where the text is unambiguous.
+def _flatten(data: Mapping[Any, Any], source: str, warn: bool = True) -> dict[str, Any]:
+    """Settings as written (sections nested, dotted keys or the old flat names) -> one
+    ``{dotted name: value}``; unknown names pass through for ``_build`` to refuse."""
+    out: dict[str, Any] = {}
+    given: dict[str, str] = {}  # dotted name -> the key that set it, to refuse a clash
+    for key, value in data.items():
+        name = str(key)  # a YAML key may be a number or null
+        if name in SECTIONS and isinstance(value, Mapping):
+            items = [(f"{name}.{sub}", name, v) for sub, v in value.items()]
+        elif name in SECTIONS and name not in LEGACY_KEYS:
+            raise ValueError(f"{name} is a section of settings: give a mapping in YAML or "
+                             f"--set {name}.KEY=VALUE, got {value!r}")
+        elif name in LEGACY_KEYS:
+            new = LEGACY_KEYS[name]
+            if warn:
+                warnings.warn(RenamedSetting(name, new), stacklevel=3)
+            items = [(new, name, value)]
+        else:
+            items = [(name, name, value)]
+        for dotted, written, v in items:
+            if dotted in given and given[dotted] != written:
+                raise ValueError(f"{dotted} is set twice in {source} (as {given[dotted]} "
+                                 f"and as {written})")
+            given[dotted] = written
+            out[dotted] = v
+    return out
 
-    PyYAML reads ``3e-4`` (no dot) and ``1e6`` as strings and ``2.0`` as a float; those are
-    what a user means as a learning rate or a budget. Anything else passes unchanged, for
-    ``TrainConfig`` to reject with the field's name."""
-    kind = _FIELD_KINDS.get(key)
-    if kind == "widths" and isinstance(value, list | tuple):
-        return tuple(_as_int(v) for v in value)
-    if kind == "int":
-        return _as_int(value)
-    if kind in ("float", "float|None") and isinstance(value, str):
-        try:
-            return float(value)
-        except ValueError:
-            return value
-    return value
+
+def _section(name: str, data: Mapping[Any, Any]) -> Any:
+    """A section's dataclass from a mapping of its fields (unknown fields refused)."""
+    settings = {f"{name}.{key}": value for key, value in data.items()}
+    _refuse_unknown(settings)
+    return SECTIONS[name](**{key.partition(".")[2]: values.coerce(KINDS[key], value)
+                             for key, value in settings.items()})
 
 
-def _as_int(value: Any) -> Any:
-    if isinstance(value, str):
-        try:
-            value = float(value)
-        except ValueError:
-            return value
-    if isinstance(value, float) and value.is_integer():
-        return int(value)
-    return value
+def _refuse_unknown(settings: Mapping[str, Any]) -> None:
+    unknown = sorted(set(settings) - set(KINDS) - {BUDGET_UNIT})
+    if not unknown:
+        return
+    hints = []
+    for key in unknown:
+        close = difflib.get_close_matches(key, [*KINDS, *LEGACY_KEYS], n=1, cutoff=0.7)
+        if close:
+            hints.append(f"{key!r} (did you mean {LEGACY_KEYS.get(close[0], close[0])!r}?)")
+        else:
+            hints.append(repr(key))
+    raise ValueError(f"unknown setting(s) {', '.join(hints)}; valid: {', '.join(KINDS)}")
+
+
+def _build(settings: dict[str, Any]) -> TrainConfig:
+    """A ``TrainConfig`` from ``{dotted name: value}`` (unknown names refused, text read as
+    each field's type); unset fields keep ``TrainConfig``'s defaults."""
+    _refuse_unknown(settings)
+    unit = settings.pop(BUDGET_UNIT, None)
+    top = {k: values.coerce(KINDS[k], v) for k, v in settings.items() if k in _TOP}
+    parts: dict[str, dict[str, Any]] = {name: {} for name in SECTIONS}
+    for key, value in settings.items():
+        section, _, name = key.partition(".")
+        if name:
+            parts[section][name] = values.coerce(KINDS[key], value)
+    config = TrainConfig(**top, **{name: SECTIONS[name](**kw) for name, kw in parts.items()})
+    if unit is not None and unit != config.budget_unit:
+        raise ValueError(f"budget_unit of the {config.stage} stage is {config.budget_unit!r}, "
+                         f"got {unit!r}")
+    return config
 
 
 def load_config(stage: str, path: str | Path | None = None,
-                overrides: dict[str, Any] | None = None) -> TrainConfig:
-    """The stage's packaged defaults, updated by the YAML at ``path`` and ``overrides``."""
+                overrides: Mapping[str, Any] | None = None) -> TrainConfig:
+    """The stage's packaged defaults, updated by the YAML at ``path`` and ``overrides``
+    (``{"ppo.n_envs": 128}``, ``{"ppo": {"n_envs": 128}}`` or an old flat name)."""
     if stage not in STAGES:
         raise ValueError(f"unknown stage {stage!r}; valid: {', '.join(STAGES)}")
-    valid = {f.name for f in fields(TrainConfig)}
-    values: dict[str, Any] = {"stage": stage}
-    user = _read_yaml(Path(path)) if path else {}
-    # the HUMAN-LIKE player's packaged settings sit between the stage's and the user's
-    env = (overrides or {}).get("env", user.get("env", "simple"))
-    values.update(_read_yaml(CONFIG_DIR / f"{stage}.yaml"))
-    player = CONFIG_DIR / f"{stage}_{env}.yaml"
-    if env != "simple" and player.is_file():
-        values.update(_read_yaml(player))
-    values.update(user)
-    values.update(overrides or {})
-    # keys as text: a YAML key may be a number or null, which do not sort with strings
-    unknown = sorted(map(str, set(values) - valid))
-    if unknown:
-        raise ValueError(f"unknown setting(s) {unknown}; valid: {sorted(valid)}")
-    if values.get("stage") != stage:
-        raise ValueError(f"config is for stage {values.get('stage')!r}, not {stage!r}")
-    return replace(TrainConfig(), **{k: _coerce(k, v) for k, v in values.items()})
+    user = _flatten(_read_yaml(Path(path)), f"config file {path}") if path else {}
+    extra = _flatten(overrides or {}, "the overrides")
+    # the player's packaged settings sit between the stage's and the user's
+    player = extra.get("player", user.get("player", DEFAULT_PLAYER))
+    settings: dict[str, Any] = {"stage": stage}
+    settings.update(_flatten(_read_yaml(CONFIG_DIR / f"{stage}.yaml"), stage, warn=False))
+    overlay = CONFIG_DIR / f"{stage}_{player}.yaml"
+    if isinstance(player, str) and player in PLAYERS and overlay.is_file():
+        settings.update(_flatten(_read_yaml(overlay), overlay.name, warn=False))
+    settings.update(user)
+    settings.update(extra)
+    _refuse_unknown(settings)
+    if settings.get("stage") != stage:
+        raise ValueError(f"config is for stage {settings.get('stage')!r}, not {stage!r}")
+    return _build(settings)
 
 
 def _read_yaml(source: Path) -> dict[str, Any]:
+    import yaml  # the train extra's: this module also serves the CLI's help without it
+
     try:
         data = yaml.safe_load(source.read_text()) or {}
     except FileNotFoundError:
@@ -276,11 +300,14 @@ def _read_yaml(source: Path) -> dict[str, Any]:
 
 
 def parse_overrides(items: list[str]) -> dict[str, Any]:
-    """``["n_envs=128", "net_arch=[64, 64]"]`` -> values parsed as YAML scalars or lists."""
+    """``["ppo.n_envs=128", "ppo.net_arch=[64, 64]"]`` -> values parsed as YAML scalars or
+    lists, keyed by the names as given (``load_config`` checks them)."""
+    import yaml
+
     out: dict[str, Any] = {}
     for item in items:
         key, sep, value = item.partition("=")
-        if not sep or not key:
+        if not sep or not key.strip():
             raise ValueError(f"--set takes KEY=VALUE, got {item!r}")
         try:
             out[key.strip()] = yaml.safe_load(value)

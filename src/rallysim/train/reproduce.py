@@ -59,13 +59,15 @@ class Budget:
     warm_start: str = "scripted"  # the low level's start: "scripted" (cloned) or "none"
 
     def overrides(self, stage: str) -> dict[str, Any]:
-        if stage == "low":
-            return {"decisions": self.low_decisions, "warm_start": self.warm_start,
-                    "eval_every": max(self.low_decisions // 8, 1)}
-        if stage == "high":
-            return {"decisions": self.high_turns, "eval_every": max(self.high_turns // 3, 1),
-                    "checkpoint_every": max(self.high_turns // 6, 1)}
-        return {}
+        """The stage's settings from this budget (the mono stage's follow from the others':
+        ``train_seed``)."""
+        per_stage = {
+            "low": {"budget": self.low_decisions, "warm_start.teacher": self.warm_start,
+                    "eval.every": max(self.low_decisions // 8, 1)},
+            "high": {"budget": self.high_turns, "eval.every": max(self.high_turns // 3, 1),
+                     "checkpoint_every": max(self.high_turns // 6, 1)},
+        }
+        return per_stage.get(stage, {})
 
 
 BUDGETS = {
@@ -91,37 +93,56 @@ def result_names(cap: int) -> dict[str, str]:
             "survival": f"survival{tag}.png", "curves": "learning_curves.png"}
 
 
+# the smoke budget's small rollouts and evaluations, so that it runs in seconds
+SMOKE_SIZES: dict[str, Any] = {"ppo.n_envs": 32, "ppo.n_steps": 16, "ppo.batch_size": 256,
+                               "eval.episodes": 16, "checkpoint_every": 1024}
+SMOKE_STAGE_SIZES: dict[str, dict[str, Any]] = {"high": {"ppo.n_steps": 8,
+                                                         "ppo.batch_size": 64}}
+
+
+def _frozen_low_level(seed: int, out: Path, curves: dict[str, Any]) -> dict[str, Any]:
+    """The high stage plays over the low level this seed trained."""
+    return {"low_policy": str(out / "runs" / f"low_seed{seed}" / "policy")}
+
+
+def _hierarchy_budget(seed: int, out: Path, curves: dict[str, Any]) -> dict[str, Any]:
+    """The Monolithic baseline gets the hierarchy's budget in player-decisions: the low
+    stage's PPO steps, the teacher's decisions it cloned, and two player-decisions per rally
+    decision run inside the high stage's turns."""
+    low_steps = curves["low"]["steps"] + int(
+        curves["low"].get("warm_start", {}).get("samples", 0))
+    budget = low_steps + 2 * curves["high"]["decisions_simulated"]
+    return {"budget": budget, "eval.every": max(budget // 4, 1)}
+
+
+# what a stage takes from the stages trained before it
+LINKS = {"high": _frozen_low_level, "mono": _hierarchy_budget}
+
+
 def train_seed(seed: int, budget: Budget, out: Path, queue: Any = None) -> dict[str, Any]:
     """Train the three stages of one seed (each resumes or is skipped when already done)."""
     from rallysim.train.config import load_config
+    from rallysim.train.run_log import finished
     from rallysim.train.runner import train_stage
-    from rallysim.train.stages import headline
+    from rallysim.train.stages import NAMES, headline
 
     curves: dict[str, Any] = {}
-    small = {"n_envs": 32, "n_steps": 16, "batch_size": 256, "eval_episodes": 16,
-             "checkpoint_every": 1024} if budget.name == "smoke" else {}
-    for stage in ("low", "high", "mono"):
+    smoke = budget.name == "smoke"
+    for stage in NAMES:
         run = out / "runs" / f"{stage}_seed{seed}"
-        overrides = {"seed": seed, **budget.overrides(stage), **small}
-        if stage == "high":
-            overrides["low_policy"] = str(out / "runs" / f"low_seed{seed}" / "policy")
-            if small:
-                overrides.update(n_steps=8, batch_size=64)
-        if stage == "mono":
-            # the hierarchy's budget: its PPO steps, the teacher's decisions it cloned, and two
-            # player-decisions per rally decision run inside the high stage's turns
-            low_steps = curves["low"]["steps"] + int(
-                curves["low"].get("warm_start", {}).get("samples", 0))
-            overrides["decisions"] = low_steps + 2 * curves["high"]["decisions_simulated"]
-            overrides["eval_every"] = max(overrides["decisions"] // 4, 1)
+        overrides = {"seed": seed, **budget.overrides(stage)}
+        if smoke:
+            overrides.update({**SMOKE_SIZES, **SMOKE_STAGE_SIZES.get(stage, {})})
+        if stage in LINKS:
+            overrides.update(LINKS[stage](seed, out, curves))
         config = load_config(stage, None, overrides)
-        done = run / "curve.json"
-        if done.is_file() and json.loads(done.read_text()).get("steps", 0) >= config.decisions:
-            curves[stage] = json.loads(done.read_text())
+        done = finished(run, config.budget)
+        if done is not None:
+            curves[stage] = done
             _say(queue, f"[seed {seed}] {stage}: already trained, skipped")
             continue
         t = time.perf_counter()
-        _say(queue, f"[seed {seed}] {stage}: training {config.decisions:,} steps ...")
+        _say(queue, f"[seed {seed}] {stage}: training {config.budget:,} {config.budget_unit} ...")
         curves[stage] = train_stage(config, run, progress=False,
                                     say=lambda text: _say(queue, text))
         _say(queue, f"[seed {seed}] {stage}: done in {time.perf_counter() - t:.0f} s, "
@@ -397,19 +418,23 @@ def plot_learning_curves(curves: dict[int, dict[str, Any]], path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from rallysim.train.stages import STAGES
+
     fig, axes = plt.subplots(1, 3, figsize=(15, 4))
-    panels = [("low", "mean_reward", "low level: mean episode reward", "decisions"),
-              ("high", "mean_rally", "high level: mean rally length", "turns"),
-              ("mono", "mean_rally", "Monolithic: mean rally length", "player-decisions")]
-    for ax, (stage, key, title, unit) in zip(axes, panels, strict=True):
+    # (stage, title, the paper's value to draw, if any)
+    panels = [("low", "low level: mean episode reward", PAPER_LOW_REWARD),
+              ("high", "high level: mean rally length", None),
+              ("mono", "Monolithic: mean rally length", None)]
+    for ax, (name, title, paper) in zip(axes, panels, strict=True):
+        stage = STAGES[name]
         for seed, c in sorted(curves.items()):
-            evals = c[stage]["evals"]
-            ax.plot([e["steps"] for e in evals], [e[key] for e in evals], marker="o",
-                    label=f"seed {seed}")
-        if stage == "low":
-            ax.axhline(PAPER_LOW_REWARD, ls="--", c="grey", label="paper (Fig. 6)")
+            evals = c[name]["evals"]
+            ax.plot([e["steps"] for e in evals], [e[stage.score_key] for e in evals],
+                    marker="o", label=f"seed {seed}")
+        if paper is not None:
+            ax.axhline(paper, ls="--", c="grey", label="paper (Fig. 6)")
         ax.set_title(title)
-        ax.set_xlabel(unit)
+        ax.set_xlabel(stage.unit)
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)
     fig.tight_layout()

@@ -1,6 +1,7 @@
 """Run one training stage with Stable-Baselines3 PPO: ``train_stage(config, out_dir)``.
 
-What a run leaves in ``out_dir``:
+What a run leaves in ``out_dir`` (the record is kept by ``rallysim.train.run_log``, shared with
+the RLlib backend):
 
 | file | what |
 |---|---|
@@ -11,8 +12,9 @@ What a run leaves in ``out_dir``:
 | ``curve.json`` | evaluations and per-rollout training returns, with wall times |
 | ``tb/`` | TensorBoard logs (``tensorboard --logdir out_dir/tb``) |
 
-Progress: a bar with ETA when stderr is a terminal; otherwise (a log, CI, ``reproduce``) a
-line at least every 30 s with the stage, seed, phase, steps, rate and ETA
+One SB3 step is one unit of the stage's budget: a decision (low), a turn (high), a player's
+decision (mono). Progress: a bar with ETA when stderr is a terminal; otherwise (a log, CI,
+``reproduce``) a line at least every 30 s with the stage, seed, phase, units done, rate and ETA
 (``rallysim.train.progress``).
 
 A run started again on the same ``out_dir`` resumes from its newest intact checkpoint (after
@@ -25,28 +27,26 @@ checkpoint supersedes it; ``resume=False`` removes every checkpoint first.
 
 from __future__ import annotations
 
-import json
 import math
 import shutil
 import sys
-import time
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
 from rallysim.train import checkpoint as ckpt
 from rallysim.train import stages
 from rallysim.train.config import TrainConfig
 from rallysim.train.progress import Heartbeat, Say, progress_lines, say_stderr
+from rallysim.train.run_log import RunLog
 
 
 class _Monitor:
-    """SB3 callback: progress bar with ETA, evaluations, checkpoints, the learning curve."""
+    """SB3 callback: progress bar or heartbeat, evaluations and checkpoints on the run log's
+    schedule, a row of the curve per rollout."""
 
-    def __init__(self, config: TrainConfig, out: Path, curve: dict[str, Any],
-                 progress: bool, beat: Heartbeat | None) -> None:
+    def __init__(self, log: RunLog, progress: bool, beat: Heartbeat | None) -> None:
         from stable_baselines3.common.callbacks import BaseCallback
 
         monitor = self
@@ -59,79 +59,57 @@ class _Monitor:
                 monitor.rollout_end(self.model)
 
         self.callback = Callback()
-        self.config, self.out, self.curve, self.progress = config, out, curve, progress
-        self.beat = beat
+        self.log, self.progress, self.beat = log, progress, beat
         self.bar: Any = None
-        self.eval_wall = 0.0
-        self.start = time.perf_counter() - curve.get("train_wall_s", 0.0)
-        done = curve.get("decisions", 0)
-        every = config.eval_every or math.inf
-        self.next_eval = (done // every + 1) * every if every < math.inf else math.inf
-        self.next_ckpt = (done // config.checkpoint_every + 1) * config.checkpoint_every
 
     def open_bar(self, done: int) -> None:
         if self.beat is not None:
             self.beat.update(done)
             self.beat.set_phase("PPO")
+            self.log.say = self.beat.say
         elif self.progress:
             from tqdm import tqdm
 
-            self.bar = tqdm(total=self.config.decisions, initial=done, unit="step",
-                            unit_scale=True, desc=f"train {self.config.stage}", file=sys.stderr,
+            config = self.log.config
+            self.bar = tqdm(total=config.budget, initial=done, unit=f" {self.log.unit}",
+                            unit_scale=True, desc=f"train {config.stage}", file=sys.stderr,
                             dynamic_ncols=True, smoothing=0.1)
-
-    def train_wall(self) -> float:
-        return time.perf_counter() - self.start - self.eval_wall
+            self.log.say = self.bar.write
 
     def rollout_end(self, model: Any) -> None:
         steps = int(model.num_timesteps)
         buf = model.ep_info_buffer
         ep_rew = float(np.mean([e["r"] for e in buf])) if buf else math.nan
-        self.curve["rollouts"].append({"steps": steps, "wall_s": round(self.train_wall(), 2),
-                                       "ep_rew_mean": ep_rew})
+        self.log.record_update({"steps": steps, "wall_s": round(self.log.train_wall(), 2),
+                                "ep_rew_mean": ep_rew})
         if self.bar is not None:
             self.bar.update(steps - self.bar.n)
             self.bar.set_postfix_str(f"ep_rew {ep_rew:.3f}", refresh=False)
         if self.beat is not None:
             self.beat.update(steps)
-        if steps >= self.next_eval:
+        if self.log.eval_due(steps):
             self.evaluate(model)
-            while self.next_eval <= steps:
-                self.next_eval += self.config.eval_every
-        if steps >= self.next_ckpt:
+        if self.log.checkpoint_due(steps):
             self.save(model)
-            while self.next_ckpt <= steps:
-                self.next_ckpt += self.config.checkpoint_every
 
     def evaluate(self, model: Any) -> dict[str, Any]:
-        t = time.perf_counter()
         act = lambda obs: model.predict(obs, deterministic=True)[0]  # noqa: E731
-        result = stages.evaluate(self.config, act)
-        row = {"steps": int(model.num_timesteps), "wall_s": round(self.train_wall(), 2),
-               **result}
-        self.eval_wall += time.perf_counter() - t
-        self.curve["evals"].append(row)
+        row = self.log.evaluate(int(model.num_timesteps), act)
         logger = getattr(model, "_logger", None)  # none before any PPO (a clone alone)
-        for key, value in result.items():
-            if logger is not None:
-                logger.record(f"eval/{key}", value)
-        c = self.config
-        message = (f"[{c.stage} seed {c.seed}] {row['steps']:>10,} steps: "
-                   + stages.headline(c, result))
-        if self.bar is not None:
-            self.bar.write(message)
-        elif self.beat is not None:
-            self.beat.say(message)
+        if logger is not None:
+            for key, value in row.items():
+                if key not in ("steps", "wall_s"):
+                    logger.record(f"eval/{key}", value)
         return row
 
     def save(self, model: Any) -> None:
-        self.curve["decisions"] = int(model.num_timesteps)
-        self.curve["train_wall_s"] = round(self.train_wall(), 2)
-        ckpt.save_checkpoint(self.out, model, {
-            "stage": self.config.stage, "network": self.config.network(),
-            "config": self.config.to_dict(), "curve": self.curve})
+        config, out = self.log.config, self.log.out
+        self.log.mark(int(model.num_timesteps))
+        ckpt.save_checkpoint(out, model, {
+            "stage": config.stage, "network": config.network(), "config": config.to_dict(),
+            "curve": self.log.curve})
         # the PPO checkpoint holds the clone and its results: the warm start's state is spent
-        shutil.rmtree(warm_start_dir(self.out), ignore_errors=True)
+        shutil.rmtree(warm_start_dir(out), ignore_errors=True)
 
 
 def build_model(config: TrainConfig, out: Path) -> Any:
@@ -141,7 +119,7 @@ def build_model(config: TrainConfig, out: Path) -> Any:
     torch.set_num_threads(config.torch_threads)
     env = stages.make_env(config)
     return PPO("MlpPolicy", env, seed=config.seed, device="cpu", verbose=0,
-               tensorboard_log=str(out / "tb"), **config.ppo_kwargs())
+               tensorboard_log=str(out / "tb"), **config.ppo.sb3_kwargs())
 
 
 def train_stage(config: TrainConfig, out_dir: str | Path, resume: bool = True,
@@ -152,7 +130,7 @@ def train_stage(config: TrainConfig, out_dir: str | Path, resume: bool = True,
     if say is None and progress:
         say = progress_lines()  # None on a terminal: the bar
     beat = None if say is None else Heartbeat(f"[{config.stage} seed {config.seed}]",
-                                             config.decisions, say)
+                                             config.budget, say, unit=config.budget_unit)
     if beat is None:
         return _train_stage(config, Path(out_dir), resume, progress, None)
     with beat:
@@ -167,32 +145,30 @@ def warm_start_dir(out: Path) -> Path:
 def _train_stage(config: TrainConfig, out: Path, resume: bool, progress: bool,
                  beat: Heartbeat | None) -> dict[str, Any]:
     out.mkdir(parents=True, exist_ok=True)
+    log = RunLog(config, out, "rollouts")
     # warnings (a damaged checkpoint skipped) are shown even without progress output
     warn = beat.say if beat is not None else say_stderr
     note = warn if progress or beat is not None else None
     if not resume and (removed := ckpt.remove_checkpoints(out)) and note is not None:
-        note(f"restarting {config.stage}: removed {removed} checkpoint(s) of the previous run")
+        note(log.restart_note(removed))
     model = build_model(config, out)
-    curve: dict[str, Any] = {"stage": config.stage, "evals": [], "rollouts": []}
     found = ckpt.resume(model, out, {"stage": config.stage, "network": config.network()},
                         warn) if resume else None
     if found is not None:
         latest, doc = found
-        curve = doc["curve"]
-        curve.setdefault("evals", [])
-        curve.setdefault("rollouts", [])
+        log.adopt(doc["curve"])
         shutil.rmtree(warm_start_dir(out), ignore_errors=True)  # superseded, see _Monitor.save
         if note is not None:
-            note(f"resuming {config.stage} from {latest.name} "
-                 f"({model.num_timesteps:,} steps done)")
-    elif config.warm_start == "scripted":
+            note(log.resume_note(latest, int(model.num_timesteps)))
+    elif config.warm_start.enabled:
         if beat is not None:
             beat.set_phase("warm start (behaviour cloning)")
-        curve["warm_start"] = warm_start(model, config, progress and beat is None, out,
-                                         warn, note)
-    (out / "config.yaml").write_text(yaml.safe_dump(config.to_dict(), sort_keys=False))
-    monitor = _Monitor(config, out, curve, progress, beat)
-    remaining = config.decisions - int(model.num_timesteps)
+        log.curve["warm_start"] = warm_start(model, config, progress and beat is None, out,
+                                             warn, note)
+    log.write_config()
+    log.start_clock()
+    monitor = _Monitor(log, progress, beat)
+    remaining = config.budget - int(model.num_timesteps)
     monitor.open_bar(int(model.num_timesteps))
     try:
         if remaining > 0:
@@ -201,74 +177,57 @@ def _train_stage(config: TrainConfig, out: Path, resume: bool, progress: bool,
     finally:
         if monitor.bar is not None:
             monitor.bar.close()
-    evals = curve["evals"]
-    final = (evals[-1] if evals and evals[-1]["steps"] == model.num_timesteps
-             else monitor.evaluate(model))
+    final = log.evaluation_at(int(model.num_timesteps))
+    if final is None:
+        final = monitor.evaluate(model)
     monitor.save(model)
-    curve["final"] = final
-    curve["steps"] = int(model.num_timesteps)
-    curve["train_wall_s"] = round(monitor.train_wall(), 2)
-    curve["steps_per_s"] = round(curve["steps"] / max(curve["train_wall_s"], 1e-9), 1)
-    curve["decisions_simulated"] = (stages.decisions_simulated(model.get_env())
-                                    if config.stage == "high" else curve["steps"])
-    export_policy(model, config, out / "policy", final)
-    # written last, in one step: reproduce takes a stage with a curve.json as trained
-    ckpt.atomic_write(out / "curve.json", json.dumps(curve, indent=1).encode(), "curve")
+    steps = int(model.num_timesteps)
+    curve = log.finish(final, steps, stages.of(config).decisions_simulated(model.get_env(),
+                                                                           steps))
+    export_policy(model, log, out / "policy", final)
+    log.write_curve()
     return curve
 
 
 def warm_start(model: Any, config: TrainConfig, progress: bool, out: Path | None = None,
                warn: Say | None = None, note: Say | None = None) -> dict[str, Any]:
-    """Behaviour-clone the scripted controller into ``model`` (labelled in every output):
-    ``ScriptedController`` for SIMPLE, ``AimedSwing`` for HUMAN-LIKE. With ``out``, resumable:
-    its state is saved in (and resumed from) ``warm_start_dir(out)``; ``warn``: where a
-    skipped damaged state is reported, ``note``: where resuming is."""
+    """Behaviour-clone the player's scripted controller into ``model`` (labelled in every
+    output): ``ScriptedController`` for SIMPLE, ``AimedSwing`` for HUMAN-LIKE. With ``out``,
+    resumable: its state is saved in (and resumed from) ``warm_start_dir(out)``; ``warn``:
+    where a skipped damaged state is reported, ``note``: where resuming is."""
     from rallysim.train.warm_start import WarmCheckpoint, behaviour_clone
 
-    if config.env == "humanlike":
-        from rallysim.policies.aimed_swing import AimedSwing
-
-        teacher, name = AimedSwing(config.shuttle), "AimedSwing"
-    else:
-        from rallysim.policies import ScriptedController
-
-        teacher, name = ScriptedController().act_return, "ScriptedController"
+    stage = stages.of(config)
+    teacher, name = stage.teacher(config)
+    settings = config.warm_start
     if progress:
-        print(f"warm start: cloning {name} over {config.warm_start_decisions:,} decisions "
-              f"(+{config.warm_start_dagger} DAgger rounds) ...", file=sys.stderr, flush=True)
+        print(f"warm start: cloning {name} over {settings.decisions:,} decisions "
+              f"(+{settings.dagger} DAgger rounds) ...", file=sys.stderr, flush=True)
 
     def evaluate(act: Any, round_: int) -> dict[str, Any]:
         # the clone's learning curve over its DAgger rounds, with the stage's own numbers
-        result = stages.evaluate(config, act)
+        result = stage.evaluate(config, act)
         if progress:
-            stage = f"DAgger round {round_}" if round_ else "clone"
-            print(f"[warm start] {stage}: {stages.headline(config, result)}", file=sys.stderr,
+            step = f"DAgger round {round_}" if round_ else "clone"
+            print(f"[warm start] {step}: {stage.headline(config, result)}", file=sys.stderr,
                   flush=True)
         return result
 
     checkpoint = None
     if out is not None:
         checkpoint = WarmCheckpoint(warm_start_dir(out), say=warn or say_stderr, note=note,
-                                    extra={"eval_episodes": config.eval_episodes,
-                                           "eval_seed": config.eval_seed})
-    result = behaviour_clone(model, teacher, config.warm_start_decisions,
-                             epochs=config.warm_start_epochs,
-                             log_std=config.warm_start_log_std, shuttle=config.shuttle,
-                             seed=config.seed + 1_000_003, player=config.env,
-                             dagger_rounds=config.warm_start_dagger,
-                             batch_size=config.warm_start_batch_size,
-                             lr_decay=config.warm_start_lr_decay,
-                             evaluate=evaluate if config.warm_start_dagger else None,
+                                    extra={"eval_episodes": config.eval.episodes,
+                                           "eval_seed": config.eval.seed})
+    result = behaviour_clone(model, teacher, settings, stage.clone_task(config),
+                             evaluate=evaluate if settings.dagger else None,
                              checkpoint=checkpoint)
     return {**result, "teacher": name}
 
 
-def export_policy(model: Any, config: TrainConfig, prefix: Path, final: dict[str, Any]) -> None:
+def export_policy(model: Any, log: RunLog, prefix: Path, final: dict[str, Any]) -> None:
     """The deterministic actor as safetensors + JSON (with its weights' SHA-256)."""
     from rallysim.train.export import save_policy
 
-    meta = {"stage": config.stage, "seed": config.seed, "steps": int(model.num_timesteps),
-            "final": final, "config": config.to_dict()}
-    if (mapping := stages.goal_mapping(config)) is not None:
-        meta["goal_mapping"] = mapping
-    save_policy(model, prefix, env_id=stages.export_env(config), metadata=meta)
+    steps = int(model.num_timesteps)
+    save_policy(model, prefix, env_id=log.stage.export_env(log.config),
+                metadata=log.policy_metadata(steps, final))

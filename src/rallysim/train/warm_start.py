@@ -1,12 +1,14 @@
 """Optional behaviour-cloning warm start of a PPO actor-critic from a teacher controller.
 
 Not the paper's method (it trained the low level from scratch): runs that use it must say so.
-The teacher (e.g. ``ScriptedController().act_return``) plays ``decisions`` decisions; the actor's
-mean is fitted to its actions (MSE; the teacher's actions are already in [-1, 1]) and the critic
-to the discounted returns it earned, so that PPO's first advantages are not noise that would
-undo the clone. With ``dagger_rounds`` > 0 the clone then plays itself and the teacher labels
-the states it reaches (DAgger), so that it also learns to recover from its own mistakes. The
-log-std is then set to ``log_std`` (small: the clone is already good).
+The teacher (e.g. ``ScriptedController().act_return``) plays ``decisions`` decisions of the
+player's low-level task (``CloneTask``); the actor's mean is fitted to its actions (MSE; the
+teacher's actions are already in [-1, 1]) and the critic to the discounted returns it earned,
+so that PPO's first advantages are not noise that would undo the clone. With ``dagger`` > 0
+rounds the clone then plays itself and the teacher labels the states it reaches (DAgger), so
+that it also learns to recover from its own mistakes. The log-std is then set to ``log_std``
+(small: the clone is already good). The settings are the ``warm_start`` section of the
+training configuration (``rallysim.train.sections.WarmStartSettings``).
 
 Resumable: given a ``WarmCheckpoint``, each round's dataset is saved once it is collected
 (``data_{round}.{digest}.safetensors``) and the clone's state after every fitted epoch and
@@ -32,8 +34,8 @@ import numpy as np
 import torch
 from stable_baselines3 import PPO
 
-from rallysim.envs.simple_return_v0 import SimpleReturnVectorEnv
 from rallysim.train import checkpoint as ckpt
+from rallysim.train.sections import WarmStartSettings
 
 Act = Callable[[np.ndarray], np.ndarray]
 Evaluate = Callable[[Act, int], dict[str, Any]]
@@ -46,23 +48,25 @@ _DATA_KEYS = ("obs", "act", "ret", "weight")
 N_ENVS = 256  # environments the teacher and the clone play in, per round
 
 
-def _task_env(player: str, n_envs: int, shuttle: str) -> Any:
-    if player == "humanlike":
-        from rallysim.envs.humanlike_return_v0 import HumanLikeReturnVectorEnv
+@dataclass(frozen=True)
+class CloneTask:
+    """Where a warm start's teacher and clone play: the player's low-level task
+    (``rallysim.train.stages.low.LowStage.clone_task``)."""
 
-        return HumanLikeReturnVectorEnv(n_envs, shuttle=shuttle, autoreset_mode="same_step")
-    return SimpleReturnVectorEnv(n_envs, shuttle=shuttle, autoreset_mode="same_step")
+    player: str  # recorded with a saved warm start
+    shuttle: str
+    seed: int  # round k's episodes are drawn from seed + 7919 k
+    make_env: Callable[[int, str], Any]  # (environments, shuttle) -> same-step vector env
 
 
-def teacher_dataset(teacher: Act, n_envs: int, decisions: int, gamma: float,
-                    shuttle: str = "paper", seed: int = 0, player: str = "simple",
-                    actor: Act | None = None
+def teacher_dataset(teacher: Act, task: CloneTask, n_envs: int, decisions: int, gamma: float,
+                    seed: int, actor: Act | None = None
                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """(obs, teacher's actions, discounted returns, sample weights) of complete episodes
-    played by ``actor`` (default: the teacher itself) in the ``player``'s low-level task. A
-    teacher with ``imitation_weights()`` weighs its last call's actions (per environment, or
-    per environment and action); else all weigh 1."""
-    env = _task_env(player, n_envs, shuttle)
+    played by ``actor`` (default: the teacher itself) in ``task``'s env, ``n_envs`` at once,
+    from ``seed``. A teacher with ``imitation_weights()`` weighs its last call's actions (per
+    environment, or per environment and action); else all weigh 1."""
+    env = task.make_env(n_envs, task.shuttle)
     obs, _ = env.reset(seed=seed)
     steps = max(1, decisions // n_envs)
     all_obs = np.empty((steps, n_envs, obs.shape[1]), np.float32)
@@ -90,7 +94,6 @@ def teacher_dataset(teacher: Act, n_envs: int, decisions: int, gamma: float,
         running = rewards[t] + gamma * running * ~dones[t]
         returns[t], valid[t] = running, complete
     return all_obs[valid], all_act[valid], returns[valid].astype(np.float32), weights[valid]
-
 
 
 def _say_stderr(text: str) -> None:
@@ -277,18 +280,19 @@ def _check_state(doc: dict[str, Any], path: Path) -> None:
     req(rng, "python", list, path, "rng.")
 
 
-def behaviour_clone(model: PPO, teacher: Act, decisions: int, epochs: int = 30,
-                    batch_size: int = 4096, lr: float = 1e-3, log_std: float = -1.5,
-                    shuttle: str = "paper", seed: int = 0, player: str = "simple",
-                    dagger_rounds: int = 0, lr_decay: bool = False,
+def behaviour_clone(model: PPO, teacher: Act, settings: WarmStartSettings, task: CloneTask,
                     evaluate: Evaluate | None = None,
                     checkpoint: WarmCheckpoint | None = None) -> dict[str, Any]:
-    """Fit ``model``'s actor mean and critic to ``teacher``; return the final losses.
-    ``lr_decay``: a cosine decay of the learning rate to 5 % over each fit's epochs.
-    ``evaluate``: called with the deterministic clone and the round (0: the clone) after the
-    first fit and after every DAgger round; its results are returned under ``rounds`` with the
-    decisions labelled so far (the clone's learning curve). ``checkpoint``: save the progress
-    there and resume from what is saved there (see the module's docstring)."""
+    """Fit ``model``'s actor mean and critic to ``teacher`` playing ``task`` as ``settings``
+    say (``rallysim.train.sections.WarmStartSettings``: decisions, epochs, batch size, learning
+    rate and its cosine decay to 5 % over each fit, DAgger rounds, the final log-std); return
+    the final losses. ``evaluate``: called with the deterministic clone and the round (0: the
+    clone) after the first fit and after every DAgger round; its results are returned under
+    ``rounds`` with the decisions labelled so far (the clone's learning curve).
+    ``checkpoint``: save the progress there and resume from what is saved there (see the
+    module's docstring)."""
+    decisions, epochs, lr = settings.decisions, settings.epochs, settings.lr
+    dagger_rounds, seed = settings.dagger, task.seed
     t0 = time.perf_counter()
     policy = model.policy
     optimiser = torch.optim.Adam(policy.parameters(), lr=lr)
@@ -302,14 +306,17 @@ def behaviour_clone(model: PPO, teacher: Act, decisions: int, epochs: int = 30,
     data: list[tuple[np.ndarray, ...]] = []
     store = None
     if checkpoint is not None:
-        settings = {"decisions": decisions, "epochs": epochs, "batch_size": batch_size,
-                    "lr": lr, "log_std": log_std, "shuttle": shuttle, "seed": seed,
-                    "player": player, "dagger_rounds": dagger_rounds, "lr_decay": lr_decay,
-                    "gamma": float(model.gamma), "teacher": _teacher_name(teacher),
-                    "evaluated": evaluate is not None,
-                    "network": {k: list(v.shape) for k, v in policy.state_dict().items()},
-                    **checkpoint.extra}
-        store = _Store(checkpoint, settings, policy, optimiser, gen)
+        # what a saved state must share with the run that resumes it (these names are those
+        # of saved warm starts: changing one would refuse their resume)
+        record = {"decisions": decisions, "epochs": epochs,
+                  "batch_size": settings.batch_size, "lr": lr, "log_std": settings.log_std,
+                  "shuttle": task.shuttle, "seed": seed, "player": task.player,
+                  "dagger_rounds": dagger_rounds, "lr_decay": settings.lr_decay,
+                  "gamma": float(model.gamma), "teacher": _teacher_name(teacher),
+                  "evaluated": evaluate is not None,
+                  "network": {k: list(v.shape) for k, v in policy.state_dict().items()},
+                  **checkpoint.extra}
+        store = _Store(checkpoint, record, policy, optimiser, gen)
         restored = store.restore()
         if restored is not None:
             run, data = restored
@@ -334,8 +341,8 @@ def behaviour_clone(model: PPO, teacher: Act, decisions: int, epochs: int = 30,
         run.round = k
         size = decisions if k == 0 else max(N_ENVS, decisions // 4)
         if len(data) <= k:
-            data.append(teacher_dataset(teacher, N_ENVS, size, model.gamma, shuttle,
-                                        seed + 7919 * k, player, actor=student if k else None))
+            data.append(teacher_dataset(teacher, task, N_ENVS, size, model.gamma,
+                                        seed + 7919 * k, actor=student if k else None))
             run.labelled += max(1, size // N_ENVS) * N_ENVS  # whole batch steps are played
             run.epoch, run.evaluated = 0, False
             if store is not None:
@@ -348,15 +355,15 @@ def behaviour_clone(model: PPO, teacher: Act, decisions: int, epochs: int = 30,
             save()
 
         if run.epoch < fit_epochs:
-            _fit(policy, optimiser, gen, data, fit_epochs, batch_size, lr, lr_decay,
-                 start=run.epoch, epoch_done=epoch_done)
+            _fit(policy, optimiser, gen, data, fit_epochs, settings.batch_size, lr,
+                 settings.lr_decay, start=run.epoch, epoch_done=epoch_done)
         if evaluate is not None and not run.evaluated:
             run.rounds.append({"round": k, "labelled_decisions": run.labelled, **run.losses,
                                **evaluate(student, k)})
             run.evaluated = True
             save()
     with torch.no_grad():
-        policy.log_std.fill_(log_std)
+        policy.log_std.fill_(settings.log_std)
     elapsed = run.elapsed_s + time.perf_counter() - mark
     out: dict[str, Any] = {"samples": float(sum(len(d[0]) for d in data)), **run.losses,
                            "wall_s": round(elapsed, 2)}

@@ -1,0 +1,134 @@
+"""The sections of a training configuration: ``ppo``, ``warm_start`` and ``eval``.
+
+Each is a frozen dataclass that checks its own fields at construction (``rallysim.train.values``)
+and names them with its section in errors (``ppo.gamma must be in [0, 1], got 5``). In YAML
+each is a mapping under its name; on the command line each field is ``--set SECTION.FIELD=VALUE``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+from typing import Any, ClassVar
+
+from rallysim.train import values
+from rallysim.train.values import Bound, above, at_least, within
+
+
+@dataclass(frozen=True)
+class PPOSettings:
+    """PPO's rollout, update and networks (SPEC §8: tanh MLP 64x64 actor and critic, log-std
+    initialised at -0.5), shared by the SB3 and RLlib backends."""
+
+    SECTION: ClassVar[str] = "ppo"
+
+    n_envs: int = 64
+    n_steps: int = 64
+    batch_size: int = 1024
+    n_epochs: int = 10
+    target_kl: float | None = None
+    learning_rate: float = 3e-4
+    anneal_lr: bool = False  # decay the learning rate linearly to 0 over the budget
+    gamma: float = 0.99
+    gae_lambda: float = 0.95
+    clip_range: float = 0.2
+    ent_coef: float = 0.0
+    vf_coef: float = 0.5
+    max_grad_norm: float = 0.5
+    net_arch: tuple[int, ...] = (64, 64)
+    activation: str = "tanh"
+    log_std_init: float = -0.5
+
+    def __post_init__(self) -> None:
+        if isinstance(self.net_arch, list):  # as YAML and to_dict() write it
+            object.__setattr__(self, "net_arch", tuple(self.net_arch))
+        values.check_fields(self, "ppo.", {"activation": ("tanh", "relu")}, _PPO_BOUNDS)
+        if any(width < 1 for width in self.net_arch):
+            raise ValueError(f"ppo.net_arch layer widths must be >= 1, got "
+                             f"{list(self.net_arch)}")
+        if self.n_envs * self.n_steps < 2:
+            raise ValueError(f"a rollout (ppo.n_envs x ppo.n_steps) needs at least 2 decisions, "
+                             f"got {self.n_envs} x {self.n_steps}")
+
+    def sb3_kwargs(self) -> dict[str, Any]:
+        """Stable-Baselines3 ``PPO``'s keyword arguments for these settings."""
+        import torch
+
+        activation = {"tanh": torch.nn.Tanh, "relu": torch.nn.ReLU}[self.activation]
+        lr0 = self.learning_rate
+        learning_rate: Any = (lambda remaining: lr0 * remaining) if self.anneal_lr else lr0
+        return {
+            "n_steps": self.n_steps, "batch_size": self.batch_size, "n_epochs": self.n_epochs,
+            "target_kl": self.target_kl, "learning_rate": learning_rate,
+            "gamma": self.gamma, "gae_lambda": self.gae_lambda, "clip_range": self.clip_range,
+            "ent_coef": self.ent_coef, "vf_coef": self.vf_coef,
+            "max_grad_norm": self.max_grad_norm,
+            "policy_kwargs": {"net_arch": {"pi": list(self.net_arch), "vf": list(self.net_arch)},
+                              "activation_fn": activation, "log_std_init": self.log_std_init},
+        }
+
+
+_PPO_BOUNDS: dict[str, Bound] = {
+    "n_envs": at_least(1), "n_steps": at_least(1),
+    # PPO normalises advantages over a minibatch, and over a rollout: both need two samples
+    "batch_size": at_least(2),
+    "n_epochs": at_least(1), "target_kl": above(0), "learning_rate": above(0),
+    # a discount or GAE lambda above 1 lets returns grow without bound
+    "gamma": within(0, 1), "gae_lambda": within(0, 1),
+    "clip_range": above(0), "ent_coef": at_least(0), "vf_coef": at_least(0),
+    "max_grad_norm": above(0),
+}
+
+
+@dataclass(frozen=True)
+class WarmStartSettings:
+    """Behaviour cloning of the player's scripted controller before PPO (the low stage; not the
+    paper's method): ``decisions`` of its play fitted for ``epochs``, then ``dagger`` rounds in
+    which the clone plays a quarter as many decisions and the teacher labels them."""
+
+    SECTION: ClassVar[str] = "warm_start"
+
+    teacher: str = "none"  # "scripted": the player's scripted controller; "none": no clone
+    decisions: int = 524_288
+    epochs: int = 60
+    batch_size: int = 4096
+    lr: float = 1e-3
+    lr_decay: bool = False  # cosine decay of the clone's learning rate over each fit
+    log_std: float = -1.5  # the actor's log-std once cloned (small: the clone is already good)
+    dagger: int = 0
+
+    def __post_init__(self) -> None:
+        values.check_fields(self, "warm_start.", {"teacher": ("none", "scripted")},
+                            _WARM_BOUNDS)
+
+    @property
+    def enabled(self) -> bool:
+        return self.teacher != "none"
+
+
+_WARM_BOUNDS: dict[str, Bound] = {
+    "decisions": at_least(1), "epochs": at_least(1), "batch_size": at_least(1),
+    "lr": above(0), "dagger": at_least(0),
+}
+
+
+@dataclass(frozen=True)
+class EvalSettings:
+    """How the stage's deterministic policy is judged during and after training."""
+
+    SECTION: ClassVar[str] = "eval"
+
+    every: int = 500_000  # budget units between evaluations (0: only at the end)
+    episodes: int = 500  # episodes (low) or rallies (high, mono) per evaluation
+    seed: int = 12345
+
+    def __post_init__(self) -> None:
+        values.check_fields(self, "eval.", {}, {"every": at_least(0),
+                                                "episodes": at_least(1), "seed": values.SEED})
+
+
+SECTIONS: dict[str, type] = {cls.SECTION: cls for cls in (PPOSettings, WarmStartSettings,
+                                                          EvalSettings)}
+
+
+def section_fields(name: str) -> tuple[str, ...]:
+    return tuple(f.name for f in fields(SECTIONS[name]))

@@ -1,0 +1,134 @@
+"""The high stage: PPO on the turn-based rally over a frozen low level, one SB3 step per turn,
+one policy for both players; judged by the mean rally length.
+
+SIMPLE: ``SimpleRallyTurnVectorEnv``, the action a in [-1, 1] setting the goal 4 + 2a m.
+HUMAN-LIKE: ``HumanLikeRallyTurnVectorEnv``, the action the 3-D goal (speed, elevation and
+azimuth of the racket velocity) for its low level (``AimedSwing`` when ``scripted``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, ClassVar
+
+import numpy as np
+
+from rallysim.train.stages.base import Act, Stage, rally_result
+
+if TYPE_CHECKING:
+    from rallysim.train.config import TrainConfig
+    from rallysim.train.sb3_vec import NativeVecEnv
+
+LowLevel = Callable[[np.ndarray, np.ndarray], np.ndarray]
+
+
+@dataclass(frozen=True)
+class HighPlayer:
+    """What the high stage does differently for one player."""
+
+    make_env: Callable[[TrainConfig], NativeVecEnv]
+    rally_lengths: Callable[[TrainConfig, Act, int], np.ndarray]  # (config, act, rallies)
+    goal_mapping: str  # written into the exported policy
+    export_env: str
+
+
+def frozen_low_level(spec: str) -> LowLevel:
+    """The SIMPLE high stage's low level: a stored low-level policy (or ``scripted``)."""
+    from rallysim.policies.resolve import rally_low_level
+
+    return rally_low_level(spec)
+
+
+def goals_from_actions(act: Act) -> Act:
+    """A SIMPLE high-level network's (M, 1) actions in [-1, 1] -> (M,) goals in metres."""
+    return lambda obs: 4.0 + 2.0 * np.clip(np.asarray(act(obs)).reshape(len(obs)), -1.0, 1.0)
+
+
+def _simple_env(config: TrainConfig) -> NativeVecEnv:
+    from gymnasium.wrappers.vector import RescaleAction
+
+    from rallysim.envs.simple_rally_v0 import SimpleRallyTurnVectorEnv
+    from rallysim.train.sb3_vec import NativeVecEnv
+
+    turns = SimpleRallyTurnVectorEnv(config.ppo.n_envs,
+                                     low_level=frozen_low_level(config.low_policy),
+                                     autoreset_mode="same_step", seed=config.seed,
+                                     shuttle=config.shuttle)
+    # the original mapping: goal = 4 + 2 clip(a, -1, 1) metres
+    unit = np.ones(1, np.float32)
+    return NativeVecEnv(RescaleAction(turns, min_action=-unit, max_action=unit))
+
+
+def _simple_lengths(config: TrainConfig, act: Act, rallies: int) -> np.ndarray:
+    from rallysim.envs.rally_task import RallyConfig
+    from rallysim.eval.rally_eval import rally_lengths_turns
+
+    return rally_lengths_turns(goals_from_actions(act), frozen_low_level(config.low_policy),
+                               rallies, config.eval.seed, RallyConfig(shuttle=config.shuttle))
+
+
+def _humanlike_env(config: TrainConfig) -> NativeVecEnv:
+    from rallysim.envs.humanlike_rally_task import HumanLikeRallyTask
+    from rallysim.envs.humanlike_rally_v0 import HumanLikeRallyTurnVectorEnv
+    from rallysim.train.sb3_vec import NativeVecEnv
+
+    low = HumanLikeRallyTask.resolve_low_level(config.low_policy)
+    return NativeVecEnv(HumanLikeRallyTurnVectorEnv(config.ppo.n_envs, low_level=low,
+                                                    seed=config.seed,
+                                                    autoreset_mode="same_step",
+                                                    shuttle=config.shuttle))
+
+
+def _humanlike_lengths(config: TrainConfig, act: Act, rallies: int) -> np.ndarray:
+    from rallysim.envs.humanlike_rally_task import HumanLikeRallyTask
+    from rallysim.envs.rally_task import RallyConfig
+    from rallysim.eval.rally_eval import rally_lengths_turns
+
+    return rally_lengths_turns(act, HumanLikeRallyTask.resolve_low_level(config.low_policy),
+                               rallies, config.eval.seed, RallyConfig(shuttle=config.shuttle),
+                               rally=HumanLikeRallyTask)
+
+
+PLAYERS: dict[str, HighPlayer] = {
+    "simple": HighPlayer(_simple_env, _simple_lengths, "goal_m = 4 + 2 * clip(action, -1, 1)",
+                         "RallySim/SimpleRallyTurn-v0"),
+    "humanlike": HighPlayer(
+        _humanlike_env, _humanlike_lengths,
+        "target racket velocity: speed 1.5 + 1.5 (a0 + 1) m/s, elevation 40 + 5 (a1 + 1) deg, "
+        "azimuth 30 a2 deg (own frame)",
+        "rallysim.envs.humanlike_rally_v0:HumanLikeRallyTurnVectorEnv"),
+}
+
+
+class HighStage(Stage):
+    name: ClassVar[str] = "high"
+    unit: ClassVar[str] = "turns"
+    title: ClassVar[str] = "high"
+    players: ClassVar[tuple[str, ...]] = tuple(PLAYERS)
+    multi_agent: ClassVar[bool] = True
+
+    def make_env(self, config: TrainConfig) -> NativeVecEnv:
+        return PLAYERS[config.player].make_env(config)
+
+    def env_options(self, config: TrainConfig) -> dict[str, Any]:
+        return {"shuttle": config.shuttle, "low_policy": config.low_policy}
+
+    def evaluate(self, config: TrainConfig, act: Act, rallies: int | None = None
+                 ) -> dict[str, Any]:
+        n = rallies or config.eval.episodes
+        return rally_result(PLAYERS[config.player].rally_lengths(config, act, n))
+
+    def export_env(self, config: TrainConfig) -> str:
+        return PLAYERS[config.player].export_env
+
+    def goal_mapping(self, config: TrainConfig) -> str | None:
+        return PLAYERS[config.player].goal_mapping
+
+    def decisions_simulated(self, vec_env: NativeVecEnv, steps: int) -> int:
+        # a turn runs the frozen low level for many decisions; the turn env counts them
+        inner = vec_env.venv.unwrapped
+        return int(getattr(inner, "decisions_simulated", 0))
+
+
+HIGH = HighStage()

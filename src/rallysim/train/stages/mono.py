@@ -1,0 +1,46 @@
+"""The mono stage, the Monolithic baseline (Table VII): PPO on the rally at the physics rate,
+one policy for both players, each rally-player pair a slot; one SB3 step is one decision of
+one player; judged by the mean rally length. SIMPLE only.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any, ClassVar
+
+from rallysim.train.stages.base import Act, Stage, rally_result
+
+if TYPE_CHECKING:
+    from rallysim.train.config import TrainConfig
+    from rallysim.train.sb3_vec import NativeVecEnv
+
+
+class MonoStage(Stage):
+    name: ClassVar[str] = "mono"
+    unit: ClassVar[str] = "player-decisions"
+    title: ClassVar[str] = "monolithic"
+    players: ClassVar[tuple[str, ...]] = ("simple",)
+    multi_agent: ClassVar[bool] = True
+    slots_per_env: ClassVar[int] = 2
+
+    def make_env(self, config: TrainConfig) -> NativeVecEnv:
+        from rallysim.envs.simple_rally_v0 import SimpleRallyVectorEnv
+        from rallysim.train.sb3_vec import NativeVecEnv
+
+        rallies = config.ppo.n_envs // self.slots_per_env
+        return NativeVecEnv(SimpleRallyVectorEnv(rallies, autoreset_mode="same_step",
+                                                 seed=config.seed, shuttle=config.shuttle))
+
+    def evaluate(self, config: TrainConfig, act: Act, rallies: int | None = None
+                 ) -> dict[str, Any]:
+        from rallysim.envs.rally_task import RallyConfig
+        from rallysim.eval.rally_eval import rally_lengths_direct
+
+        n = rallies or config.eval.episodes
+        return rally_result(rally_lengths_direct(act, n, config.eval.seed,
+                                                 RallyConfig(shuttle=config.shuttle)))
+
+    def export_env(self, config: TrainConfig) -> str:
+        return "rallysim.envs.simple_rally_v0:SimpleRallyVectorEnv"
+
+
+MONO = MonoStage()
