@@ -39,6 +39,7 @@ from rallysim.eval.rally_eval import rally_lengths_turns
 from rallysim.eval.stats import summarise_rallies
 from rallysim.policies.aimed_swing import AimedSwing
 from rallysim.policies.mlp import load_policy
+from rallysim.policies.registry import resolve
 
 
 def low_levels(args: argparse.Namespace, episodes: int) -> list[dict[str, Any]]:
@@ -58,7 +59,7 @@ def low_levels(args: argparse.Namespace, episodes: int) -> list[dict[str, Any]]:
 
 
 def high_levels(args: argparse.Namespace, rallies: int, seeds: int) -> list[dict[str, Any]]:
-    low = HumanLikeRallyTask.resolve_low_level(args.low or "scripted")
+    low = resolve(args.low or "scripted", "rally_low", "humanlike")
     named: dict[str, Any] = {name: partial(rally_goals, name) for name in ("centre", "random")}
     if args.high:
         net = rally_goals(args.high)

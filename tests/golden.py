@@ -173,18 +173,13 @@ def _pretrained_simple() -> str:
     """The shipped SIMPLE policies' evaluation numbers: returns, HRL and Monolithic rallies."""
     from rallysim.eval.low_eval import evaluate_return
     from rallysim.eval.rally_eval import rally_lengths_direct, rally_lengths_turns
-    from rallysim.policies.resolve import (
-        high_level_policy,
-        low_level_policy,
-        mono_policy,
-        rally_low_level,
-    )
+    from rallysim.policies.registry import resolve
 
     h = Hasher()
-    h.add(evaluate_return(low_level_policy("pretrained"), episodes=64, seed=99).as_dict())
-    h.add(rally_lengths_turns(high_level_policy("pretrained"), rally_low_level("pretrained"),
+    h.add(evaluate_return(resolve("pretrained", "low"), episodes=64, seed=99).as_dict())
+    h.add(rally_lengths_turns(resolve("pretrained", "high"), resolve("pretrained", "rally_low"),
                               16, seed=99))
-    h.add(rally_lengths_direct(mono_policy("pretrained"), 16, seed=99))
+    h.add(rally_lengths_direct(resolve("pretrained", "mono"), 16, seed=99))
     return h.hexdigest()
 
 

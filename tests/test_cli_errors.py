@@ -295,8 +295,8 @@ def no_long_work(monkeypatch, tmp_path):
     import rallysim.eval.compare
     import rallysim.eval.humanlike_eval
     import rallysim.eval.low_eval
-    import rallysim.render
     import rallysim.render.play
+    import rallysim.render.record
     import rallysim.train.reproduce
     import rallysim.train.runner
 
@@ -312,8 +312,9 @@ def no_long_work(monkeypatch, tmp_path):
     targets = [(rallysim.train.runner, "train_stage"), (rallysim.train.reproduce, "run_reproduce"),
                (rallysim.eval.compare, "evaluate_methods"),
                (rallysim.eval.humanlike_eval, "evaluate_humanlike_player"),
-               (rallysim.eval.low_eval, "evaluate_return"), (rallysim.render, "record_low_level"),
-               (rallysim.render, "record_rally"), (rallysim.render.play, "play")]
+               (rallysim.eval.low_eval, "evaluate_return"),
+               (rallysim.render.record, "record_low_level"),
+               (rallysim.render.record, "record_rally"), (rallysim.render.play, "play")]
     for module, name in targets:
         monkeypatch.setattr(module, name, stand_in(name))
     monkeypatch.chdir(tmp_path)

@@ -24,7 +24,7 @@ from rallysim.envs.humanlike_return_v0 import HumanLikeReturnEnv, HumanLikeRetur
 from rallysim.envs.rally_task import RallyConfig
 from rallysim.envs.simple_return_v0 import SimpleReturnEnv, SimpleReturnVectorEnv
 from rallysim.policies.mlp import load_policy
-from rallysim.policies.resolve import pretrained_prefix
+from rallysim.policies.registry import pretrained_prefix
 
 VIEWS = {v.name: v for v in views() if v.name.endswith(("/paper", "/paper/cooperative"))}
 

@@ -12,12 +12,12 @@ import numpy as np
 from rallysim.cli import main
 from rallysim.eval.low_eval import evaluate_return
 from rallysim.eval.rally_eval import rally_lengths_turns
-from rallysim.policies.resolve import high_level_policy, low_level_policy, rally_low_level
+from rallysim.policies.registry import resolve
 
 
 def test_shipped_policies_load_without_torch():
     code = ("import sys; sys.modules['torch'] = None; sys.modules['stable_baselines3'] = None\n"
-            "from rallysim.policies.resolve import load_network\n"
+            "from rallysim.policies.registry import load_network\n"
             "for role in ('low', 'high', 'mono'): load_network('pretrained', role)\n"
             "for role in ('low', 'high'): load_network('pretrained', role, 'humanlike')\n"
             "print('ok')")
@@ -26,12 +26,12 @@ def test_shipped_policies_load_without_torch():
 
 
 def test_pretrained_low_level_returns_serves():
-    r = evaluate_return(low_level_policy("pretrained"), episodes=256, seed=99)
+    r = evaluate_return(resolve("pretrained", "low"), episodes=256, seed=99)
     assert r.hit_rate > 0.95 and r.mean_reward > 1.5
 
 
 def test_pretrained_hierarchy_rallies_long():
-    lengths = rally_lengths_turns(high_level_policy("pretrained"), rally_low_level("pretrained"),
+    lengths = rally_lengths_turns(resolve("pretrained", "high"), resolve("pretrained", "rally_low"),
                                   32, seed=99)
     assert lengths.mean() > 30
 

@@ -13,14 +13,10 @@ import pytest
 from rallysim.core.game import Game
 from rallysim.envs.simple_return_v0 import SimpleReturnEnv
 from rallysim.policies.scripted import ScriptedController
-from rallysim.render import (
-    SceneRenderer,
-    record_low_level,
-    write_strip,
-    write_video,
-)
+from rallysim.render import SceneRenderer, write_strip, write_video
 from rallysim.render.backend import select_backend
 from rallysim.render.model import MARKER_HALF_HEIGHT
+from rallysim.render.record import record_low_level
 from tests.conftest import gl_problem
 
 _PROBLEM = gl_problem()

@@ -280,7 +280,7 @@ def test_record_rally_draws_the_seeded_3d_rally(monkeypatch):
     from rallysim.envs.humanlike_rally_v0 import HumanLikeRallyTurnEnv
     from rallysim.envs.turn_loop import TurnLoop
     from rallysim.eval.humanlike_eval import rally_goals
-    from rallysim.render import record_rally
+    from rallysim.render.record import record_rally
 
     env = HumanLikeRallyTurnEnv(low_level="pretrained")
     obs, _ = env.reset(seed=6)

@@ -75,13 +75,9 @@ class Window:
 
 def high_level(player: str, seed: int):
     """A fresh seeded random high level of ``player``."""
-    if player == "simple":
-        from rallysim.policies.resolve import high_level_policy
+    from rallysim.policies.registry import resolve
 
-        return high_level_policy("random", seed)
-    from rallysim.eval.humanlike_eval import rally_goals
-
-    return rally_goals("random", seed)
+    return resolve("random", "high", player, seed)
 
 
 def turn_env(player: str, low: str):

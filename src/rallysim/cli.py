@@ -54,11 +54,12 @@ def _demo(args: argparse.Namespace) -> int:
         return _demo_humanlike(args)
     from rallysim.envs.simple_return_v0 import SimpleReturnVectorEnv
     from rallysim.eval.low_eval import evaluate_return
-    from rallysim.policies.resolve import low_level_policy
+    from rallysim.policies.registry import resolve
 
     env = SimpleReturnVectorEnv(args.envs, shuttle=args.shuttle, autoreset_mode="same_step")
     start = time.perf_counter()
-    r = evaluate_return(low_level_policy(args.policy, args.seed), env, args.episodes, args.seed)
+    r = evaluate_return(resolve(args.policy, "low", "simple", args.seed), env, args.episodes,
+                        args.seed)
     elapsed = time.perf_counter() - start
     print(f"RallySim/SimpleReturn-v0, shuttle={args.shuttle!r}, policy={args.policy!r}, "
           f"{r.episodes} episodes")
@@ -266,7 +267,8 @@ def _rally_policies(player: str, low: str, high: str, seed: int,
 def _render(args: argparse.Namespace) -> int:
     """Write an MP4, a GIF and a strip of stills of N episodes (or rallies)."""
     from rallysim.envs.rally_task import RallyConfig
-    from rallysim.render import record_low_level, record_rally, write_strip, write_video
+    from rallysim.render import write_strip, write_video
+    from rallysim.render.record import record_low_level, record_rally
 
     policy, high_name = _policies(args)
     out = Path(args.out)
@@ -462,12 +464,12 @@ def _evaluate_humanlike(args: argparse.Namespace) -> dict:
 def _evaluate_simple(args: argparse.Namespace) -> dict:
     """HRL, Random High-level and Monolithic on SIMPLE rallies."""
     from rallysim.eval.compare import evaluate_methods
-    from rallysim.policies.resolve import high_level_policy, low_level_policy, mono_policy
+    from rallysim.policies.registry import resolve
     from rallysim.train.progress import Heartbeat, progress_lines
 
     # a bad policy name or file fails here, before the long work
-    low_level_policy(args.low), high_level_policy(args.high or "pretrained")
-    mono_policy(args.mono)
+    resolve(args.low, "low"), resolve(args.high or "pretrained", "high")
+    resolve(args.mono, "mono")
     _say_deprecated("evaluate", args.deprecated)
     say = progress_lines()
     beat = None if say is None else Heartbeat("[evaluate]", 3 * args.seeds, say,

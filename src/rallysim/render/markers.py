@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from rallysim.envs.humanlike_rally_task import targets_from_goals
+from rallysim.players.humanlike import targets_from_goals
 
 
 def goal_markers(player: str, goals: np.ndarray) -> dict[str, Any]:

@@ -158,13 +158,12 @@ def evaluate_seed(seed: int, out: Path, rallies: int, low_episodes: int,
     from rallysim.eval.low_eval import evaluate_return
     from rallysim.eval.rally_eval import rules_for_cap
     from rallysim.policies.mlp import load_policy
-    from rallysim.policies.resolve import rally_low_level
-    from rallysim.train.stages import goals_from_actions
+    from rallysim.policies.registry import resolve
 
     runs = out / "runs"
     low_prefix = str(runs / f"low_seed{seed}" / "policy")
-    low = rally_low_level(low_prefix)
-    high = goals_from_actions(load_policy(runs / f"high_seed{seed}" / "policy"))
+    low = resolve(low_prefix, "rally_low")
+    high = resolve(str(runs / f"high_seed{seed}" / "policy"), "high")
     mono = load_policy(runs / f"mono_seed{seed}" / "policy")
     eval_seed = 1_000_000 + 1000 * seed  # unseen by training (its envs use seed + i)
     lengths = play_methods(high, low, mono, rallies, eval_seed, rules_for_cap(cap), beat,

@@ -15,7 +15,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 from rallysim.train.stages.base import Act, Stage, rally_result
-from rallysim.train.stages.high import HIGH, frozen_low_level, goals_from_actions
+from rallysim.train.stages.high import HIGH
 from rallysim.train.stages.low import LOW
 from rallysim.train.stages.mono import MONO
 
@@ -24,7 +24,7 @@ if TYPE_CHECKING:
     from rallysim.train.sb3_vec import NativeVecEnv
 
 __all__ = ["HIGH", "LOW", "MONO", "NAMES", "STAGES", "Act", "Stage", "by_name", "evaluate",
-           "export_env", "frozen_low_level", "goal_mapping", "goals_from_actions", "headline",
+           "export_env", "goal_mapping", "headline",
            "make_env", "of", "rally_result", "score"]
 
 STAGES: dict[str, Stage] = {stage.name: stage for stage in (LOW, HIGH, MONO)}

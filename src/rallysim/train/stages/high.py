@@ -14,13 +14,14 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
+from rallysim.players import HUMANLIKE, SIMPLE
+from rallysim.policies.callables import Composed
+from rallysim.policies.registry import resolve
 from rallysim.train.stages.base import Act, Stage, rally_result
 
 if TYPE_CHECKING:
     from rallysim.train.config import TrainConfig
     from rallysim.train.sb3_vec import NativeVecEnv
-
-LowLevel = Callable[[np.ndarray, np.ndarray], np.ndarray]
 
 
 @dataclass(frozen=True)
@@ -33,18 +34,6 @@ class HighPlayer:
     export_env: str
 
 
-def frozen_low_level(spec: str) -> LowLevel:
-    """The SIMPLE high stage's low level: a stored low-level policy (or ``scripted``)."""
-    from rallysim.policies.resolve import rally_low_level
-
-    return rally_low_level(spec)
-
-
-def goals_from_actions(act: Act) -> Act:
-    """A SIMPLE high-level network's (M, 1) actions in [-1, 1] -> (M,) goals in metres."""
-    return lambda obs: 4.0 + 2.0 * np.clip(np.asarray(act(obs)).reshape(len(obs)), -1.0, 1.0)
-
-
 def _simple_env(config: TrainConfig) -> NativeVecEnv:
     from gymnasium.wrappers.vector import RescaleAction
 
@@ -52,10 +41,11 @@ def _simple_env(config: TrainConfig) -> NativeVecEnv:
     from rallysim.train.sb3_vec import NativeVecEnv
 
     turns = SimpleRallyTurnVectorEnv(config.ppo.n_envs,
-                                     low_level=frozen_low_level(config.low_policy),
+                                     low_level=resolve(config.low_policy, "rally_low"),
                                      autoreset_mode="same_step", seed=config.seed,
                                      shuttle=config.shuttle)
-    # the original mapping: goal = 4 + 2 clip(a, -1, 1) metres
+    # [-1, 1] onto the goal range [2, 6] m: SIMPLE.goal.from_action's 4 + 2a, in the wrapper's
+    # float32 arithmetic (trained networks and their seeded runs were made with it)
     unit = np.ones(1, np.float32)
     return NativeVecEnv(RescaleAction(turns, min_action=-unit, max_action=unit))
 
@@ -64,16 +54,16 @@ def _simple_lengths(config: TrainConfig, act: Act, rallies: int) -> np.ndarray:
     from rallysim.envs.rally_task import RallyConfig
     from rallysim.eval.rally_eval import rally_lengths_turns
 
-    return rally_lengths_turns(goals_from_actions(act), frozen_low_level(config.low_policy),
+    return rally_lengths_turns(Composed(SIMPLE.goal.from_action, act),
+                               resolve(config.low_policy, "rally_low"),
                                rallies, config.eval.seed, RallyConfig(shuttle=config.shuttle))
 
 
 def _humanlike_env(config: TrainConfig) -> NativeVecEnv:
-    from rallysim.envs.humanlike_rally_task import HumanLikeRallyTask
     from rallysim.envs.humanlike_rally_v0 import HumanLikeRallyTurnVectorEnv
     from rallysim.train.sb3_vec import NativeVecEnv
 
-    low = HumanLikeRallyTask.resolve_low_level(config.low_policy)
+    low = resolve(config.low_policy, "rally_low", HUMANLIKE)
     return NativeVecEnv(HumanLikeRallyTurnVectorEnv(config.ppo.n_envs, low_level=low,
                                                     seed=config.seed,
                                                     autoreset_mode="same_step",
@@ -85,19 +75,16 @@ def _humanlike_lengths(config: TrainConfig, act: Act, rallies: int) -> np.ndarra
     from rallysim.envs.rally_task import RallyConfig
     from rallysim.eval.rally_eval import rally_lengths_turns
 
-    return rally_lengths_turns(act, HumanLikeRallyTask.resolve_low_level(config.low_policy),
+    return rally_lengths_turns(act, resolve(config.low_policy, "rally_low", HUMANLIKE),
                                rallies, config.eval.seed, RallyConfig(shuttle=config.shuttle),
                                rally=HumanLikeRallyTask)
 
 
 PLAYERS: dict[str, HighPlayer] = {
-    "simple": HighPlayer(_simple_env, _simple_lengths, "goal_m = 4 + 2 * clip(action, -1, 1)",
+    "simple": HighPlayer(_simple_env, _simple_lengths, SIMPLE.goal.mapping,
                          "RallySim/SimpleRallyTurn-v0"),
-    "humanlike": HighPlayer(
-        _humanlike_env, _humanlike_lengths,
-        "target racket velocity: speed 1.5 + 1.5 (a0 + 1) m/s, elevation 40 + 5 (a1 + 1) deg, "
-        "azimuth 30 a2 deg (own frame)",
-        "rallysim.envs.humanlike_rally_v0:HumanLikeRallyTurnVectorEnv"),
+    "humanlike": HighPlayer(_humanlike_env, _humanlike_lengths, HUMANLIKE.goal.mapping,
+                            "rallysim.envs.humanlike_rally_v0:HumanLikeRallyTurnVectorEnv"),
 }
 
 
