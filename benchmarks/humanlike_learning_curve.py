@@ -1,6 +1,6 @@
 """The HUMAN-LIKE low level's learning curves (the paper's Fig. 8): hit rate, angle error and
 speed error of deterministic evaluations against training decisions, for one or more runs of
-``rallysim train low --env humanlike``, with issue 5's targets drawn in.
+``rallysim train low --player humanlike``, with issue 5's targets drawn in.
 
 Run: ``python benchmarks/humanlike_learning_curve.py RUN_DIR[=LABEL] ... --out PNG``
 
