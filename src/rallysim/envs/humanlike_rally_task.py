@@ -21,7 +21,7 @@ import numpy as np
 
 from rallysim.core.humanlike import N_ACTIONS, HumanLikeBodies
 from rallysim.envs.humanlike_obs import PLAYER_OBS_SIZE, player_observations
-from rallysim.envs.humanlike_return_v0 import TARGET_SCALE, sample_serves, sample_targets
+from rallysim.envs.humanlike_return_v0 import TARGET_SCALE, sample_targets
 from rallysim.envs.rally_task import RallyTask, _finite_goals
 
 START_HIPS = (-2.7, 0.0)  # own frame, both players
@@ -61,16 +61,11 @@ class HumanLikeRallyTask(RallyTask):
         return HumanLikeBodies(n, 2)
 
     def _serve(self, envs: np.ndarray, receiver: np.ndarray) -> None:
+        """Place both players at the start; the game's serve (``core.serve.rally_serve``: the
+        HUMAN-LIKE serve) goes toward ``receiver``."""
         k = len(envs)
-        g = self.game
-        g.reset(envs, receiver=receiver, base_x=np.full((k, 2), START_HIPS[0]), theta=0.0,
-                base_y=np.full((k, 2), START_HIPS[1]))
-        u = np.stack([g.rngs[e].random(5) for e in envs]).reshape(k, 5)
-        pos, vel = sample_serves(u)  # in the receiver's own frame
-        turn = np.where(receiver == 1, -1.0, 1.0)[:, None]  # player 1's frame: 180 deg about z
-        pos[:, :2] *= turn
-        vel[:, :2] *= turn
-        g.launch(envs, pos, vel)
+        self.game.reset(envs, receiver=receiver, base_x=np.full((k, 2), START_HIPS[0]),
+                        theta=0.0, base_y=np.full((k, 2), START_HIPS[1]))
 
     def _player_observations(self) -> np.ndarray:
         return player_observations(self.game)

@@ -81,6 +81,8 @@ from rallysim.assets import asset_path
 from rallysim.core.game import PHYSICS_DT, PHYSICS_STEPS_PER_DECISION, Game
 from rallysim.core.humanlike import N_ACTIONS, HumanLikeBodies, humanlike_geometry
 from rallysim.core.lanes import column
+from rallysim.core.rules import SERVE_DRAWS
+from rallysim.core.serve import HumanLikeServe
 from rallysim.core.shuttle import ShuttleState, make_shuttle_model
 from rallysim.envs.humanlike_obs import HIPS, PLAYER_OBS_SIZE, SHUTTLE, player_observations
 from rallysim.envs.rendering import RENDER_MODES, EnvView
@@ -98,13 +100,13 @@ TARGET_SPEED = (1.5, 4.5)  # m/s
 TARGET_ELEVATION = (np.radians(40.0), np.radians(50.0))
 TARGET_AZIMUTH = (np.radians(-30.0), np.radians(30.0))
 TARGET_SCALE = 5.0  # m/s: observed target = v* / 5; an option's components must lie in +-5
-SERVE_X, SERVE_Y, SERVE_Z = (1.0, 6.0), (-1.0, 1.0), (1.0, 1.5)  # receiver's own frame
-SERVE_LATERAL, SERVE_RISE, SERVE_TOWARD = (-0.5, 0.5), (2.0, 3.0), 3.0
-SERVE_SPEED = 15.0
 HIPS_START = np.array([[-4.5, -1.5], [-1.5, 1.5]])  # x and y ranges
 MIN_TARGET_SPEED = 0.5  # m/s: a target needs a direction, and the speed error divides by it
 HIT_KEYS = ("racket_velocity", "velocity_error", "angle_error", "speed_error")
-N_DRAWS = 10  # uniforms one reset consumes per environment (before the rulebook's own serve)
+N_DRAWS = 5  # uniforms one reset draws per environment before its serve's (SERVE below)
+# The HUMAN-LIKE serve of SPEC §10 (rallysim.core.serve), drawn after the start's uniforms and
+# followed by the machine serve's draws, unused, which keeps v0's seeded episodes.
+SERVE = HumanLikeServe(unused_after=SERVE_DRAWS)
 
 
 def sample_targets(u: np.ndarray) -> np.ndarray:
@@ -116,19 +118,6 @@ def sample_targets(u: np.ndarray) -> np.ndarray:
                                       np.sin(elev)], axis=1)
 
 
-def sample_serves(u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """HUMAN-LIKE serves toward player 0 (world = its own frame) from uniforms ``u`` (n, 5):
-    positions and velocities, (n, 3) each."""
-    pos = np.stack([SERVE_X[0] + u[:, 0] * (SERVE_X[1] - SERVE_X[0]),
-                    SERVE_Y[0] + u[:, 1] * (SERVE_Y[1] - SERVE_Y[0]),
-                    SERVE_Z[0] + u[:, 2] * (SERVE_Z[1] - SERVE_Z[0])], axis=1)
-    direction = np.stack([np.full(len(u), -SERVE_TOWARD),
-                          SERVE_LATERAL[0] + u[:, 3] * (SERVE_LATERAL[1] - SERVE_LATERAL[0]),
-                          SERVE_RISE[0] + u[:, 4] * (SERVE_RISE[1] - SERVE_RISE[0])], axis=1)
-    direction /= np.linalg.norm(direction, axis=1, keepdims=True)
-    return pos, SERVE_SPEED * direction
-
-
 class HumanLikeReturnTask:
     """The HUMAN-LIKE low-level task over N batched games: goals, rewards, ends, observations."""
 
@@ -137,7 +126,8 @@ class HumanLikeReturnTask:
         positive_int(max_decisions, "max_decisions")
         self.n = num_envs
         self.bodies = HumanLikeBodies(num_envs, 1)
-        self.game = Game(num_envs, 1, shuttle=shuttle, seed=seed, bodies=self.bodies)
+        self.game = Game(num_envs, 1, shuttle=shuttle, seed=seed, bodies=self.bodies,
+                         serve=SERVE)
         self.max_decisions = max_decisions
         self.goal = np.zeros((num_envs, 3))
         self.elapsed = np.zeros(num_envs, np.int64)
@@ -147,14 +137,12 @@ class HumanLikeReturnTask:
         k, game = len(envs), self.game
         given = self.reset_options(options, k)
         # One draw per environment from its own stream, whatever the options say, so that
-        # an option changes only the value it sets.
+        # an option changes only the value it sets; then the serve's (``SERVE``).
         u = np.stack([game.rngs[e].random(N_DRAWS) for e in envs]).reshape(k, N_DRAWS)
         lo, hi = HIPS_START[:, 0], HIPS_START[:, 1]
         hips = given.get("hips_position", lo + u[:, 0:2] * (hi - lo))
         self.goal[envs] = given.get("target_velocity", sample_targets(u[:, 2:5]))
-        # The rulebook serves SPEC §4.3; the HUMAN-LIKE serve replaces it.
         game.reset(envs, receiver=0, base_x=hips[:, :1], theta=0.0, base_y=hips[:, 1:])
-        game.launch(envs, *sample_serves(u[:, 5:10]))
         self.elapsed[envs] = 0
 
     def reset_options(self, options: dict[str, Any] | None, k: int) -> dict[str, np.ndarray]:
@@ -197,7 +185,7 @@ class HumanLikeReturnTask:
         self.elapsed += 1
         hit, landed = read(ev.hit[:, 0]), read(ev.landed)
         if ops.any(hit):
-            reward, values = self._hit_values(ev.hit[:, 0])
+            reward, values = self._hit_values(ev.hit[:, 0], ev.hit_velocity[:, 0])
         else:  # rewards and hit values only come with a hit
             reward = 0.0
             values = {"racket_velocity": np.full((self.n, 3), np.nan), "velocity_error": np.nan,
@@ -209,9 +197,11 @@ class HumanLikeReturnTask:
             "hit": hit, **values, "net_touch": read(ev.net_touch), "landed": landed,
             "landing_point": landing, "target_velocity": self.goal}
 
-    def _hit_values(self, hit: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray]]:
-        """Rewards and hit values (NaN without a hit) of (N,) ``hit``."""
-        v = np.where(hit[:, None], self.bodies.hit_velocity[:, 0], np.nan)
+    def _hit_values(self, hit: np.ndarray, velocity: np.ndarray
+                    ) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+        """Rewards and hit values (NaN without a hit) of (N,) ``hit`` at racket ``velocity``
+        (N, 3)."""
+        v = np.where(hit[:, None], velocity, np.nan)
         error = np.linalg.norm(v - self.goal, axis=1)
         reward = np.where(hit, 0.5 * (R_HIT + np.exp(-R_VELOCITY_RATE * np.nan_to_num(error))),
                           0.0)
