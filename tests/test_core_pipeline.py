@@ -2,6 +2,7 @@
 serve strategies and the scoring rules (issue 16)."""
 
 import copy
+import itertools
 import pickle
 from dataclasses import FrozenInstanceError
 
@@ -10,6 +11,7 @@ import pytest
 from test_hits import swing_setup
 
 from rallysim.core import rules
+from rallysim.core.events import EventRows, Events
 from rallysim.core.game import Game
 from rallysim.core.humanlike import HumanLikeBodies
 from rallysim.core.serve import (
@@ -44,6 +46,21 @@ def test_each_step_returns_new_events_that_later_steps_leave_alone():
     for ev, snapshot in kept:
         for name in vars(ev):
             np.testing.assert_array_equal(getattr(ev, name), getattr(snapshot, name))
+
+
+@pytest.mark.parametrize(("n", "p"), [(1, 1), (64, 2)])
+def test_new_events_are_blank_and_share_no_memory(n, p):
+    rows = EventRows(n, p)
+    assert (rows.rows >= rows.min_rows) == (n == 1)  # one game: rows of blocks; else copies
+    twin = pickle.loads(pickle.dumps(rows))
+    taken = [r.take() for r in (rows, twin) for _ in range(rows.rows + 2)]
+    blank = Events.empty(n, p)
+    for name in vars(blank):
+        arrays = [getattr(ev, name) for ev in taken]
+        for a in arrays:
+            np.testing.assert_array_equal(a, getattr(blank, name))
+        for a, b in itertools.combinations(arrays, 2):
+            assert not np.shares_memory(a, b)
 
 
 def test_hit_velocity_is_the_racket_velocity_at_the_hit_and_nan_otherwise():

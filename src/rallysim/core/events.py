@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -54,7 +55,7 @@ class EventRows:
     copy a blank ``Events`` instead (their blocks would be large; the copy's cost is small next
     to the rest of their decision)."""
 
-    block_bytes = 1 << 15  # the most one block of one field (of all fields: x 11) may hold
+    block_bytes = 1 << 12  # the most one block of one field (of all fields: x 11) may hold
     min_rows = 8  # fewer rows per block: copy instead
 
     def __init__(self, n: int, p: int) -> None:
@@ -64,7 +65,12 @@ class EventRows:
         self._blocks: list[np.ndarray] = []
         self._next = self.rows  # no block yet
 
+    def __getstate__(self) -> dict[str, Any]:
+        # a copy makes blocks of its own (rows left in a block hold no events)
+        return {**self.__dict__, "_blocks": [], "_next": self.rows}
+
     def take(self) -> Events:
+        """A new ``Events`` with no events (zeros; ``hit_velocity`` NaN)."""
         if self.rows < self.min_rows:
             return self._blank.copy()
         if self._next == self.rows:
