@@ -1,12 +1,15 @@
 """N games at once: apply actions, run the physics steps of one decision, judge them by the rules.
 
-``Game`` owns the shuttle and the turn state; ``SimpleBodies`` owns the players. Views (the
-Gymnasium and PettingZoo envs) turn ``Game`` state and ``Events`` into observations and rewards.
+``Game`` owns the shuttle, the rally's state (``RallyState``) and the rule set (``Rules``); the
+bodies (``SimpleBodies`` by default) own the players and a serve strategy starts each rally.
+The rules that change the state are ``rallysim.core.rules``'s functions; ``Game`` runs the
+physics and calls them. Views (the Gymnasium and PettingZoo envs) turn ``Game`` state and
+``Events`` into observations and rewards.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+import math
 from typing import Any
 
 import numpy as np
@@ -14,8 +17,13 @@ import numpy as np
 from rallysim.core import rules
 from rallysim.core.bodies import PlayerBodies, SimpleBodies
 from rallysim.core.court import Court
+from rallysim.core.events import EventRows, Events
 from rallysim.core.lanes import ARRAYS, SCALARS, ArrayLanes, Ops, ScalarLanes
+from rallysim.core.serve import MachineServe, Serve
 from rallysim.core.shuttle import RADIUS, ShuttleState, make_shuttle_model
+from rallysim.core.state import RallyState
+
+__all__ = ["PHYSICS_DT", "PHYSICS_STEPS_PER_DECISION", "Events", "Game", "validate_seed"]
 
 PHYSICS_DT = 0.02
 PHYSICS_STEPS_PER_DECISION = 5
@@ -35,46 +43,15 @@ def validate_seed(seed: Any) -> int | None:
     return int(seed)
 
 
-@dataclass
-class Events:
-    """What happened during one decision, per environment (and per player where it says P)."""
-
-    hit: np.ndarray  # (N, P) bool: the player hit the shuttle
-    hit_speed: np.ndarray  # (N, P) racket face speed at the hit, m/s
-    hit_point: np.ndarray  # (N, P, 3) world position of the shuttle at the hit
-    net_touch: np.ndarray  # (N,) bool: first net touch since the last shot
-    landed: np.ndarray  # (N,) bool: the shuttle's centre dropped below z = 0
-    land_point: np.ndarray  # (N, 3) world landing point
-    land_side: np.ndarray  # (N,) int: the player whose half it landed in
-    land_in: np.ndarray  # (N,) bool: inside that half's court (paper trigger box or full half)
-    approach_good: np.ndarray  # (N, P) physics steps the base closed in on the shuttle (shaping)
-    approach_bad: np.ndarray  # (N, P) physics steps it did not
-
-    @classmethod
-    def empty(cls, n: int, p: int) -> Events:
-        return cls(
-            hit=np.zeros((n, p), bool), hit_speed=np.zeros((n, p)), hit_point=np.zeros((n, p, 3)),
-            net_touch=np.zeros(n, bool), landed=np.zeros(n, bool), land_point=np.zeros((n, 3)),
-            land_side=np.zeros(n, np.int64), land_in=np.zeros(n, bool),
-            approach_good=np.zeros((n, p), np.int64), approach_bad=np.zeros((n, p), np.int64),
-        )
-
-    def clear(self) -> None:
-        for name in _EVENT_FIELDS:
-            getattr(self, name).fill(0)
-
-
-_EVENT_FIELDS = tuple(f.name for f in fields(Events))
-
-
 class Game:
     """N batched games with P in {1, 2} players each, on one shuttle model.
 
     The players are ``bodies`` (default: SIMPLE players); every rule here works through the
-    ``PlayerBodies`` protocol, so another player model shares the whole rulebook.
-
-    ``rearm_on_net`` reproduces the original rally's net rule (a net touch re-arms both players);
-    ``shaping`` counts the low-level task's approach steps before each player's first hit.
+    ``PlayerBodies`` protocol, so another player model shares the whole rulebook. ``serve``
+    starts each rally (default: the machine serve of SPEC §4.3). The rule set ``rules``
+    (``rallysim.core.rules.Rules``) is derived once from the shuttle model and the player
+    count. ``shaping`` counts the low-level task's approach steps before each player's first
+    hit (``Events.approach_good`` and ``approach_bad``).
 
     The physics steps run on lanes (``rallysim.core.lanes``): NumPy arrays over a batch, Python
     numbers for one game of one player (``ops``), with the same rule code for both.
@@ -82,29 +59,27 @@ class Game:
 
     def __init__(self, n_envs: int, n_players: int = 1, shuttle: str = "paper",
                  seed: int | None = None, shaping: bool = False,
-                 rearm_on_net: bool = False, bodies: PlayerBodies | None = None) -> None:
+                 bodies: PlayerBodies | None = None, serve: Serve | None = None) -> None:
         self.n_envs, self.n_players = n_envs, n_players
         self.court = Court.from_mjcf()
         self.flight = make_shuttle_model(shuttle, PHYSICS_DT)
+        self.rules = rules.Rules.derive(self.flight, n_players)
         self.bodies: PlayerBodies = bodies or SimpleBodies(n_envs, n_players, PHYSICS_DT)
         if (self.bodies.n_envs, self.bodies.n_players) != (n_envs, n_players):
             raise ValueError("bodies must hold n_envs x n_players players")
+        self.serve: Serve = serve or MachineServe()
         self.shuttle = ShuttleState.zeros(n_envs)
         # One stream per environment, so that environment i of a batch seeded s replays a
         # single environment seeded s + i (Gymnasium's convention for vector seeds).
         seed = validate_seed(seed)
         self.rngs = [np.random.default_rng(None if seed is None else seed + i)
                      for i in range(n_envs)]
-        self.shaping, self.rearm_on_net = shaping, rearm_on_net
+        self.shaping = shaping
         n, p = n_envs, n_players
-        self.in_play = np.zeros(n, bool)
+        self.state = RallyState.zeros(n, p)
         self._active = np.ones(n, bool)
-        self.armed = np.zeros((n, p), bool)
-        self.has_hit = np.zeros((n, p), bool)
-        self.last_hitter = np.full(n, -1)  # -1: the serve
-        self.hits = np.zeros(n, np.int64)
-        self.net_touched = np.zeros(n, bool)
-        self.events = Events.empty(n, p)
+        self._new_events = EventRows(n, p)  # each decision's events
+        self.events = self._new_events.take()  # the last decision's (``step``'s) events
         # Boxes of the swept test, one column each: P faces (in their own frames), net, floor;
         # and as Python numbers grown for rules.apart.
         half = self.bodies.face_half + RADIUS
@@ -124,7 +99,31 @@ class Game:
         self._views: dict[str, np.ndarray] | None = None
         self._vectors: dict[str, np.ndarray] | None = None
         self._array_lanes: ArrayLanes | None = None
-        self._events_written = False  # events other than the approach counts since the clear
+
+    # -- the rally's state (RallyState), as the game's own arrays --------------------------------
+    @property
+    def in_play(self) -> np.ndarray:
+        return self.state.in_play
+
+    @property
+    def armed(self) -> np.ndarray:
+        return self.state.armed
+
+    @property
+    def has_hit(self) -> np.ndarray:
+        return self.state.has_hit
+
+    @property
+    def last_hitter(self) -> np.ndarray:
+        return self.state.last_hitter
+
+    @property
+    def hits(self) -> np.ndarray:
+        return self.state.hits
+
+    @property
+    def net_touched(self) -> np.ndarray:
+        return self.state.net_touched
 
     # -- episodes -------------------------------------------------------------------------------
     def seed(self, envs: np.ndarray, seed: int | None) -> None:
@@ -141,28 +140,22 @@ class Game:
     def reset(self, envs: np.ndarray, receiver: np.ndarray | int = 0,
               base_x: np.ndarray | None = None, theta: np.ndarray | float = 0.0,
               **body: Any) -> None:
-        """Serve a new shuttle in ``envs`` (indices) toward ``receiver``; place the players at
-        own-frame ``base_x`` (len(envs), P), arms at ``theta`` (``body``: further keywords of
-        the bodies' own ``reset``)."""
+        """Start a rally in ``envs`` (indices): place the players at own-frame ``base_x``
+        (len(envs), P), arms at ``theta`` (``body``: further keywords of the bodies' own
+        ``reset``), then serve toward ``receiver`` (the game's ``serve``, drawing from each
+        env's stream)."""
         envs = np.asarray(envs, dtype=np.int64)
         k = len(envs)
         receiver = np.broadcast_to(np.asarray(receiver, np.int64), (k,))
         if base_x is None:
             base_x = np.full((k, self.n_players), -2.7)
         self.bodies.reset(envs, base_x, theta, **body)
-        u = np.stack([self.rngs[e].random(rules.SERVE_DRAWS) for e in envs])
-        self.launch(envs, *rules.sample_serve(u, receiver))
-        self.in_play[envs] = True
-        self.armed[envs] = False
-        self.armed[envs, receiver] = True
-        self.has_hit[envs] = False
-        self.last_hitter[envs] = -1
-        self.hits[envs] = 0
-        self.net_touched[envs] = False
+        self._launch(envs, *self.serve([self.rngs[e] for e in envs], receiver))
+        rules.start_rally(self.state, envs, receiver)
 
-    def launch(self, envs: np.ndarray, pos: np.ndarray, vel: np.ndarray) -> None:
+    def _launch(self, envs: np.ndarray, pos: np.ndarray, vel: np.ndarray) -> None:
         """Put shuttles in flight in ``envs`` from world ``pos`` at ``vel`` (each (len(envs),
-        3)): the serve, or a task's own serve or fed shot in its place."""
+        3))."""
         self.shuttle.pos[envs], self.shuttle.vel[envs] = pos, vel
         mask = np.zeros(self.n_envs, bool)
         mask[envs] = True
@@ -171,24 +164,19 @@ class Game:
 
     # -- one decision ---------------------------------------------------------------------------
     def step(self, actions: np.ndarray, active: np.ndarray | None = None) -> Events:
-        """Hold ``actions`` (N, P, 3) in [-1, 1] for one decision; return its events.
+        """Hold ``actions`` (N, P, 3) in [-1, 1] for one decision; return its events (a new
+        ``Events``, never written again).
 
         ``active`` (N,) bool, optional: games left out are held still (bodies and shuttle keep
         their state and nothing happens to them), so a batch can wait on some of its games.
         Non-finite actions raise ``ValueError`` before anything moves: MuJoCo would reset the
         whole batch's state on them, not only the offending game's."""
-        finite = np.isfinite(actions)
-        if np.count_nonzero(finite) != finite.size:
-            bad = np.flatnonzero(~finite.reshape(len(finite), -1).all(axis=1))
+        if not self._all_finite(actions):
+            bad = np.flatnonzero(~np.isfinite(actions).reshape(len(actions), -1).all(axis=1))
             raise ValueError(f"actions must be finite; got NaN or inf for game(s) "
                              f"{bad[:10].tolist()}")
         self.bodies.set_actions(actions)
-        if self._events_written:  # hits, net touches and landings are rare: clear after one
-            self.events.clear()
-            self._events_written = False
-        else:
-            self.events.approach_good.fill(0)
-            self.events.approach_bad.fill(0)
+        self._bind_events(self._new_events.take())
         frozen = None if active is None or active.all() else np.flatnonzero(~active)
         if frozen is not None:
             self._active[:] = active
@@ -198,6 +186,22 @@ class Game:
             self._restore(frozen, saved)
             self._active[:] = True
         return self.events
+
+    def _all_finite(self, actions: np.ndarray) -> bool:
+        """Whether every action is finite (one game's few: as Python numbers, cheaper)."""
+        if self.ops.scalar:
+            return all(map(math.isfinite, actions.ravel().tolist()))
+        finite = np.isfinite(actions)
+        return np.count_nonzero(finite) == finite.size
+
+    def _bind_events(self, events: Events) -> None:
+        """Make ``events`` the ones the physics steps write (the approach counts are lanes)."""
+        self.events = events
+        if self._views is not None:
+            self._views["good"] = events.approach_good
+            self._views["bad"] = events.approach_bad
+        if self._array_lanes is not None:
+            self._array_lanes.rebind(good=events.approach_good, bad=events.approach_bad)
 
     def _snapshot(self, envs: np.ndarray) -> tuple:
         sh = self.shuttle
@@ -216,20 +220,21 @@ class Game:
         g = self._lanes(self.ops)
         own = self._observe(g, self.ops)
         g.gap = abs(own[0] - g.body.base_x)
-        self._store(g)
+        self._store(g, self._observed)
 
     # -- physics steps, on lanes (rallysim.core.lanes) ------------------------------------------
 
     def lane_views(self) -> dict[str, np.ndarray]:
         """Every array a physics step reads or writes, as (N, 1) (per game) or (N, P) views
         (the shuttle's vectors: ``vector_views``); made once (a copy of the game makes its
-        own: ``__getstate__``)."""
+        own: ``__getstate__``), but for the approach counts, which are each decision's new
+        events' (``_bind_events``)."""
         if self._views is None:
-            sh, ev, q, p = self.shuttle, self.events, self._q, self.n_players
+            sh, ev, q, p, st = self.shuttle, self.events, self._q, self.n_players, self.state
             self._views = {
                 "shot_speed": sh.shot_speed[:, None], "shot_time": sh.shot_time[:, None],
-                "in_play": self.in_play[:, None], "active": self._active[:, None],
-                "armed": self.armed, "has_hit": self.has_hit, "qx": q[:, :p, 0],
+                "in_play": st.in_play[:, None], "active": self._active[:, None],
+                "armed": st.armed, "has_hit": st.has_hit, "qx": q[:, :p, 0],
                 "qy": q[:, :p, 1], "qz": q[:, :p, 2], "gap": self._gap,
                 "good": ev.approach_good, "bad": ev.approach_bad, "fwd": self._fwd}
         return self._views
@@ -259,12 +264,13 @@ class Game:
     # lanes a physics step changes besides the vectors (the others change only in array code:
     # hits, net, landing)
     _moving = ("shot_time", "qx", "qy", "qz", "gap", "good", "bad")
+    _observed = ("qx", "qy", "qz", "gap")  # those ``_refresh`` changes
 
-    def _store(self, g: ArrayLanes | ScalarLanes) -> None:
-        """Scalar lanes back to the arrays, before array code reads them (array lanes are the
-        arrays)."""
+    def _store(self, g: ArrayLanes | ScalarLanes, names: tuple[str, ...] = _moving) -> None:
+        """Scalar lanes ``names`` back to the arrays, before array code reads them (array lanes
+        are the arrays)."""
         if g.scalar:
-            g.store(self.lane_views(), self._moving, self.vector_views())
+            g.store(self.lane_views(), names, self.vector_views())
             self.bodies.store_lanes(g.body)
 
     def _reload(self, g: ArrayLanes | ScalarLanes) -> None:
@@ -336,7 +342,7 @@ class Game:
             self._store(g)
             self._apply_net(_cells(touched), t[:, P], start)
             self._reload(g)
-            if self.flight.net_blocks:  # (only a blocking net moves the shuttle)
+            if self.rules.net_blocks:  # (only a blocking net moves the shuttle)
                 self._observe(g, ops)
         if ops.any(landed):
             self._store(g)
@@ -391,25 +397,22 @@ class Game:
         """Shuttles whose centre crossed z = 0 (``landed`` (N,), at fraction ``t`` of the
         step from ``p0``) land: the point, side and in/out are recorded and play stops."""
         sh, ev = self.shuttle, self.events
-        self._events_written = True
         idx = np.flatnonzero(landed)
         t = t.reshape(-1)
         point = p0[idx] + t[idx, None] * (sh.pos[idx] - p0[idx])
         point[:, 2] = 0.0
         ev.landed[idx] = True
         ev.land_point[idx] = point
-        ev.land_side[idx] = (point[:, 0] > 0).astype(np.int64)
+        ev.land_side[idx] = rules.landing_side(point)
         ev.land_in[idx] = rules.landing_in(self.court, np.abs(point[:, 0]), point[:, 1],
-                                           self.flight.full_court)
-        self.in_play[idx] = False
-        self.armed[idx] = False
+                                           self.rules.full_court)
+        rules.record_landings(self.state, idx)
         sh.vel[idx] = 0.0
 
     def _apply_hits(self, hit: np.ndarray, t: np.ndarray, p0: np.ndarray) -> None:
         """Shuttles met by an armed face leave as the bodies' shot rule says (SIMPLE: at twice
         the face centre's velocity, SPEC §5), from the point of contact."""
         b, sh, ev = self.bodies, self.shuttle, self.events
-        self._events_written = True
         env, player = np.nonzero(hit)
         # one hitter per shuttle: the first in player order (only one is armed in a rally)
         env, first = np.unique(env, return_index=True)
@@ -429,25 +432,17 @@ class Game:
         ev.hit[env, player] = True
         ev.hit_speed[env, player] = np.linalg.norm(racket, axis=1)
         ev.hit_point[env, player] = at
-        self.has_hit[env, player] = True
-        self.armed[env, player] = False
-        if self.n_players == 2:
-            self.armed[env, 1 - player] = True
-        self.last_hitter[env] = player
-        self.hits[env] += 1
-        self.net_touched[env] = False
+        ev.hit_velocity[env, player] = racket
+        rules.record_hits(self.state, env, player)
 
     def _apply_net(self, touched: np.ndarray, t: np.ndarray, p0: np.ndarray) -> None:
-        """Net touches (``touched`` (N,), at fraction ``t`` of the step from ``p0``): noted, and
-        for a blocking net the shuttle stops against it."""
+        """Net touches (``touched`` (N,), at fraction ``t`` of the step from ``p0``): noted (and
+        acted on, ``rules.record_net_touches``); a blocking net stops the shuttle against it."""
         sh, ev = self.shuttle, self.events
-        self._events_written = True
         idx = np.flatnonzero(touched)
         t = t.reshape(-1)
-        first = idx[~self.net_touched[idx]]
-        ev.net_touch[first] = True
-        self.net_touched[idx] = True
-        if self.flight.net_blocks:
+        ev.net_touch[rules.record_net_touches(self.state, idx, self.rules)] = True
+        if self.rules.net_blocks:
             # Blocked: a shuttle moving into the net stops against the face it reached and
             # drops on that side (one that already rests against it just falls).
             side = np.where(p0[idx, 0] < 0, -1.0, 1.0)
@@ -458,8 +453,6 @@ class Game:
                 at[:, 0] = side * (self.court.net_half_thickness + RADIUS)
                 sh.pos[idx] = at
                 sh.vel[idx, 0] = 0.0
-        elif self.rearm_on_net and self.n_players == 2:
-            self.armed[first] = True
 
 
 def _cells(lane: Any) -> np.ndarray:

@@ -101,7 +101,6 @@ class HumanLikeBodies(MjDataViews):
         self.hips_velocity = np.zeros((*shape, 2))  # own frame, over the last physics step
         self.target = np.zeros((*shape, N_JOINTS))
         self.torque_limit = np.zeros((*shape, N_JOINTS))
-        self.hit_velocity = np.full((*shape, 3), np.nan)  # own-frame racket velocity, last hit
         self._hips_step = np.zeros((*shape, 2))
         self._hips_new = np.zeros((*shape, 2))
         self._face0 = np.zeros((*shape, 3))  # world face centre at the last step's start
@@ -151,7 +150,6 @@ class HumanLikeBodies(MjDataViews):
         self._hips_step[envs] = 0.0
         self.hips_velocity[envs] = 0.0
         self.base_moved[envs] = False
-        self.hit_velocity[envs] = np.nan
         self._sync_mocap()
         self._dirty = True
 
@@ -321,12 +319,10 @@ class HumanLikeBodies(MjDataViews):
 
     def racket_velocity(self, env: np.ndarray, player: np.ndarray, t: np.ndarray) -> np.ndarray:
         """Own-frame face-centre velocity over the last physics step (its displacement / dt,
-        the motion the swept hit test interpolated); the same at every fraction ``t``.
-
-        Also recorded in ``hit_velocity`` (N, P, 3), since the rulebook asks for it on hits."""
+        the motion the swept hit test interpolated); the same at every fraction ``t``. The game
+        reports it at a hit as ``Events.hit_velocity``."""
         v = (self._face_pos[env, player] - self._face0[env, player]) * self.flip[env, player]
         v *= 1.0 / self.dt
-        self.hit_velocity[env, player] = v
         return v
 
     @staticmethod

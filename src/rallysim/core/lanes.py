@@ -274,6 +274,10 @@ class ArrayLanes:
         else:
             d[name] = value
 
+    def rebind(self, **views: np.ndarray) -> None:
+        """Make lanes views of other arrays (assigning would copy into the old ones)."""
+        self.__dict__.update(views)
+
 
 class ScalarLanes:
     """Lanes held as Python numbers: ``load`` reads them from (1, 1) arrays (a vector's from

@@ -1,15 +1,23 @@
-"""The rulebook's array code (SPEC §3-7): serve, swept overlap tests, net, landing, in/out.
+"""The rulebook (SPEC §3-7): the rule set, serve, swept overlap tests, net, landing, in/out,
+arming and scoring.
 
-Pure functions over batched arrays, shared by every player model and every API view. Positions
-are metres; a player's *own frame* is the world frame for player 0 and the world rotated 180
-degrees about z for player 1 (``FORWARD[p]`` is the sign that maps x and y between them).
+Functions over batched arrays, shared by every player model and every API view: ``start_rally``
+and the ``record_*`` functions change a ``RallyState`` in place, the others return new arrays.
+``Game`` runs the physics and calls them (docs/design.md lists which rule lives where).
+Positions are metres; a player's *own frame* is the world frame for player 0 and the world
+rotated 180 degrees about z for player 1 (``FORWARD[p]`` is the sign that maps x and y between
+them).
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from rallysim.core.court import Court
+from rallysim.core.shuttle import ShuttleModel
+from rallysim.core.state import SERVE, RallyState
 
 FORWARD = np.array([1.0, -1.0])  # own-frame x (and y) = FORWARD[p] * world x (and y)
 BIG = 1e9  # "unbounded" for box sides; finite so that 0 * BIG stays 0
@@ -25,6 +33,104 @@ SERVE_SPEED_SCALE = 5.0
 
 
 SERVE_DRAWS = 4  # uniforms one serve consumes
+
+# What a net touch does (``Rules.net``).
+NET_REARM = "rearm"  # both players are armed again, the shuttle flies on (the original game)
+NET_BLOCK = "block"  # the shuttle stops against the net and drops (a real shuttle: aero)
+NET_NOTE = "note"  # only noted (one player: nobody to re-arm)
+NET_RULES = (NET_REARM, NET_BLOCK, NET_NOTE)
+
+
+@dataclass(frozen=True)
+class Rules:
+    """The rule set of one game, derived once (``derive``) from its shuttle model and player
+    count: what a net touch does, and which region of a half court is in."""
+
+    net: str  # one of NET_RULES
+    full_court: bool  # in/out on the full half court; False: the original builds' trigger box
+
+    def __post_init__(self) -> None:
+        if self.net not in NET_RULES:
+            raise ValueError(f"unknown net rule {self.net!r}; valid: {', '.join(NET_RULES)}")
+
+    @classmethod
+    def derive(cls, flight: ShuttleModel, n_players: int) -> Rules:
+        """A net that blocks the shuttle (``flight.net_blocks``: aero) stops it; otherwise two
+        players are both re-armed by a touch, as in the original game, and one player's touch
+        is only noted. The court region is the flight model's (``flight.full_court``)."""
+        net = NET_BLOCK if flight.net_blocks else NET_REARM if n_players == 2 else NET_NOTE
+        return cls(net=net, full_court=flight.full_court)
+
+    @property
+    def net_blocks(self) -> bool:
+        return self.net == NET_BLOCK
+
+
+# -- the rally's state (rallysim.core.state) ----------------------------------------------------
+def start_rally(state: RallyState, envs: np.ndarray, receiver: np.ndarray) -> None:
+    """A serve in games ``envs`` toward ``receiver`` (len(envs),): in play, only the receiver
+    armed, nobody has hit, no net touch."""
+    state.in_play[envs] = True
+    state.armed[envs] = False
+    state.armed[envs, receiver] = True
+    state.has_hit[envs] = False
+    state.last_hitter[envs] = SERVE
+    state.hits[envs] = 0
+    state.net_touched[envs] = False
+
+
+def record_hits(state: RallyState, env: np.ndarray, player: np.ndarray) -> None:
+    """``player`` hit the shuttle in games ``env`` (distinct): it is disarmed and, with two
+    players, its opponent armed (the turn passes); the shot is counted and the net touch of
+    the last shot forgotten."""
+    state.has_hit[env, player] = True
+    state.armed[env, player] = False
+    if state.armed.shape[1] == 2:
+        state.armed[env, 1 - player] = True
+    state.last_hitter[env] = player
+    state.hits[env] += 1
+    state.net_touched[env] = False
+
+
+def record_net_touches(state: RallyState, envs: np.ndarray, rule_set: Rules) -> np.ndarray:
+    """The shuttle met the net in games ``envs``. Returns those where it is the first touch
+    since the last shot (the touch events); under the re-arm rule both players are armed there.
+    (Blocking the shuttle is physics: ``Game`` moves it.)"""
+    first = envs[~state.net_touched[envs]]
+    state.net_touched[envs] = True
+    if rule_set.net == NET_REARM:
+        state.armed[first] = True
+    return first
+
+
+def record_landings(state: RallyState, envs: np.ndarray) -> None:
+    """The shuttle landed in games ``envs``: play stops there, nobody may hit."""
+    state.in_play[envs] = False
+    state.armed[envs] = False
+
+
+def landing_side(point: np.ndarray) -> np.ndarray:
+    """The player (0 or 1) whose half holds each world landing ``point`` (k, 3)."""
+    return (point[:, 0] > 0).astype(np.int64)
+
+
+# -- competitive scoring ------------------------------------------------------------------------
+def point_winner(land_side: np.ndarray, land_in: np.ndarray, last_hitter: np.ndarray,
+                 server: np.ndarray) -> np.ndarray:
+    """Who wins each point that ended in a landing: the opponent of the player at fault. A
+    shuttle landing in is the fault of the player whose half it landed in; one landing out is
+    the last hitter's (before any hit, the server's)."""
+    last = np.where(last_hitter < 0, server, last_hitter)
+    return 1 - np.where(land_in, land_side, last)
+
+
+def game_over(score: np.ndarray, points_to_win: int, win_by: int, max_points: int
+              ) -> np.ndarray:
+    """Whether each game of ``score`` (k, 2) is over: ``points_to_win`` reached with a lead
+    of ``win_by``, or ``max_points`` reached."""
+    hi = score.max(axis=1)
+    lo = score.min(axis=1)
+    return ((hi >= points_to_win) & (hi - lo >= win_by)) | (hi >= max_points)
 
 
 def sample_serve(u: np.ndarray, receiver: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

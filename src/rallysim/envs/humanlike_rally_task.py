@@ -18,7 +18,6 @@ from typing import Any
 
 import numpy as np
 
-from rallysim.envs.humanlike_return_v0 import sample_serves
 from rallysim.envs.rally_task import RallyTask
 from rallysim.players import HUMANLIKE, PlayerSpec
 
@@ -39,16 +38,11 @@ class HumanLikeRallyTask(RallyTask):
         return self.spec.make_bodies(n, 2)
 
     def _serve(self, envs: np.ndarray, receiver: np.ndarray) -> None:
+        """Place both players at the start; the game's serve (``spec.serve``: the
+        HUMAN-LIKE serve) goes toward ``receiver``."""
         k = len(envs)
-        g = self.game
-        g.reset(envs, receiver=receiver, base_x=np.full((k, 2), START_HIPS[0]), theta=0.0,
-                base_y=np.full((k, 2), START_HIPS[1]))
-        u = np.stack([g.rngs[e].random(5) for e in envs]).reshape(k, 5)
-        pos, vel = sample_serves(u)  # in the receiver's own frame
-        turn = np.where(receiver == 1, -1.0, 1.0)[:, None]  # player 1's frame: 180 deg about z
-        pos[:, :2] *= turn
-        vel[:, :2] *= turn
-        g.launch(envs, pos, vel)
+        self.game.reset(envs, receiver=receiver, base_x=np.full((k, 2), START_HIPS[0]),
+                        theta=0.0, base_y=np.full((k, 2), START_HIPS[1]))
 
     def _opponent_position(self) -> np.ndarray:
         hips = self.game.bodies.hips_position()  # (N, 2, 3), each in its own frame

@@ -81,6 +81,8 @@ from rallysim.assets import asset_path
 from rallysim.core.game import PHYSICS_DT, PHYSICS_STEPS_PER_DECISION, Game
 from rallysim.core.humanlike import N_ACTIONS, HumanLikeBodies, humanlike_geometry
 from rallysim.core.lanes import column
+from rallysim.core.rules import SERVE_DRAWS
+from rallysim.core.serve import HumanLikeServe
 from rallysim.core.shuttle import ShuttleState, make_shuttle_model
 from rallysim.envs.humanlike_obs import HIPS, PLAYER_OBS_SIZE, SHUTTLE, player_observations
 from rallysim.envs.rendering import RENDER_MODES, EnvView
@@ -90,7 +92,6 @@ from rallysim.envs.validation import positive_int, read_options
 from rallysim.envs.vector_base import NEXT_STEP, TaskVectorEnv
 from rallysim.players.humanlike import (
     TARGET_SCALE,
-    sample_serves,
     sample_targets,
 )
 
@@ -102,7 +103,10 @@ R_VELOCITY_RATE = 1.5
 HIPS_START = np.array([[-4.5, -1.5], [-1.5, 1.5]])  # x and y ranges
 MIN_TARGET_SPEED = 0.5  # m/s: a target needs a direction, and the speed error divides by it
 HIT_KEYS = ("racket_velocity", "velocity_error", "angle_error", "speed_error")
-N_DRAWS = 10  # uniforms one reset consumes per environment (before the rulebook's own serve)
+N_DRAWS = 5  # uniforms one reset draws per environment before its serve's (SERVE below)
+# The HUMAN-LIKE serve of SPEC §10 (rallysim.core.serve), drawn after the start's uniforms and
+# followed by the machine serve's draws, unused, which keeps v0's seeded episodes.
+SERVE = HumanLikeServe(unused_after=SERVE_DRAWS)
 
 
 class HumanLikeReturnTask:
@@ -113,7 +117,8 @@ class HumanLikeReturnTask:
         positive_int(max_decisions, "max_decisions")
         self.n = num_envs
         self.bodies = HumanLikeBodies(num_envs, 1)
-        self.game = Game(num_envs, 1, shuttle=shuttle, seed=seed, bodies=self.bodies)
+        self.game = Game(num_envs, 1, shuttle=shuttle, seed=seed, bodies=self.bodies,
+                         serve=SERVE)
         self.max_decisions = max_decisions
         self.goal = np.zeros((num_envs, 3))
         self.elapsed = np.zeros(num_envs, np.int64)
@@ -123,14 +128,12 @@ class HumanLikeReturnTask:
         k, game = len(envs), self.game
         given = self.reset_options(options, k)
         # One draw per environment from its own stream, whatever the options say, so that
-        # an option changes only the value it sets.
+        # an option changes only the value it sets; then the serve's (``SERVE``).
         u = np.stack([game.rngs[e].random(N_DRAWS) for e in envs]).reshape(k, N_DRAWS)
         lo, hi = HIPS_START[:, 0], HIPS_START[:, 1]
         hips = given.get("hips_position", lo + u[:, 0:2] * (hi - lo))
         self.goal[envs] = given.get("target_velocity", sample_targets(u[:, 2:5]))
-        # The rulebook serves SPEC §4.3; the HUMAN-LIKE serve replaces it.
         game.reset(envs, receiver=0, base_x=hips[:, :1], theta=0.0, base_y=hips[:, 1:])
-        game.launch(envs, *sample_serves(u[:, 5:10]))
         self.elapsed[envs] = 0
 
     def reset_options(self, options: dict[str, Any] | None, k: int) -> dict[str, np.ndarray]:
@@ -173,7 +176,7 @@ class HumanLikeReturnTask:
         self.elapsed += 1
         hit, landed = read(ev.hit[:, 0]), read(ev.landed)
         if ops.any(hit):
-            reward, values = self._hit_values(ev.hit[:, 0])
+            reward, values = self._hit_values(ev.hit[:, 0], ev.hit_velocity[:, 0])
         else:  # rewards and hit values only come with a hit
             reward = 0.0
             values = {"racket_velocity": np.full((self.n, 3), np.nan), "velocity_error": np.nan,
@@ -185,9 +188,11 @@ class HumanLikeReturnTask:
             "hit": hit, **values, "net_touch": read(ev.net_touch), "landed": landed,
             "landing_point": landing, "target_velocity": self.goal}
 
-    def _hit_values(self, hit: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray]]:
-        """Rewards and hit values (NaN without a hit) of (N,) ``hit``."""
-        v = np.where(hit[:, None], self.bodies.hit_velocity[:, 0], np.nan)
+    def _hit_values(self, hit: np.ndarray, velocity: np.ndarray
+                    ) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+        """Rewards and hit values (NaN without a hit) of (N,) ``hit`` at racket ``velocity``
+        (N, 3)."""
+        v = np.where(hit[:, None], velocity, np.nan)
         error = np.linalg.norm(v - self.goal, axis=1)
         reward = np.where(hit, 0.5 * (R_HIT + np.exp(-R_VELOCITY_RATE * np.nan_to_num(error))),
                           0.0)

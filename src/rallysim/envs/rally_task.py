@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from rallysim.core import rules
 from rallysim.core.game import Game
 from rallysim.envs.simple_obs import normalise_position
 from rallysim.players import SIMPLE, PlayerSpec
@@ -91,10 +92,10 @@ class RallyTask:
                  seed: int | None = None) -> None:
         self.config = config = config or RallyConfig()
         self.n = num_rallies
-        # The original game re-armed both rackets on a net touch (the shuttle flies on through);
-        # the realistic shuttle is blocked by the net instead.
+        # The net rule (re-arm both players, or block for the aero shuttle) is the game's
+        # rules.Rules, derived from the shuttle model.
         self.game = Game(num_rallies, 2, shuttle=config.shuttle, seed=seed,
-                         rearm_on_net=config.shuttle != "aero", bodies=self._bodies(num_rallies))
+                         bodies=self._bodies(num_rallies), serve=self.spec.serve)
         self.competitive = config.mode == "competitive"
         n = num_rallies
         self.elapsed = np.zeros(n, np.int64)  # decisions in the current rally
@@ -172,16 +173,16 @@ class RallyTask:
         # a player's turn begins when the opponent hits (net re-arming is no new turn)
         self.turn_started[:, 0] = ev.hit[:, 1]
         self.turn_started[:, 1] = ev.hit[:, 0]
-        landed = ev.landed.copy()
+        landed = ev.landed
         capped = live & ~landed & ((g.hits >= cfg.max_hits) | (self.elapsed >= cfg.max_decisions))
-        rally_length = g.hits.copy()
+        rally_length = g.hits.copy()  # (the state: the next rally resets it)
         info = {
-            "hit": ev.hit.copy(),
-            "racket_speed": ev.hit_speed.copy(),
-            "hit_point": ev.hit_point.copy(),
-            "net_touch": ev.net_touch.copy(),
+            "hit": ev.hit,
+            "racket_speed": ev.hit_speed,
+            "hit_point": ev.hit_point,
+            "net_touch": ev.net_touch,
             "landed": landed,
-            "landing_point": ev.land_point.copy(),
+            "landing_point": ev.land_point,
             "landing_side": np.where(landed, ev.land_side, -1),
             "landed_in": landed & ev.land_in,
             "rally_length": rally_length,
@@ -197,11 +198,9 @@ class RallyTask:
         game_over = np.zeros(self.n, bool)
         if landed.any():
             e = np.flatnonzero(landed)
-            side = ev.land_side[e]
-            last = g.last_hitter[e]
-            last = np.where(last < 0, self.server[e], last)  # the serve counts as the server's
-            loser = np.where(ev.land_in[e], side, last)
-            winner = 1 - loser
+            winner = rules.point_winner(ev.land_side[e], ev.land_in[e], g.last_hitter[e],
+                                        self.server[e])
+            loser = 1 - winner
             self.score[e, winner] += 1
             rewards[e, winner] = 1.0
             rewards[e, loser] = -1.0
@@ -217,7 +216,5 @@ class RallyTask:
 
     def _game_over(self, envs: np.ndarray) -> np.ndarray:
         cfg = self.config
-        hi = self.score[envs].max(axis=1)
-        lo = self.score[envs].min(axis=1)
-        return ((hi >= cfg.points_to_win) & (hi - lo >= cfg.win_by)) | (hi >= cfg.max_points)
+        return rules.game_over(self.score[envs], cfg.points_to_win, cfg.win_by, cfg.max_points)
 

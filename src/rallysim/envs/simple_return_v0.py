@@ -66,9 +66,9 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 
-from rallysim.assets import load_shot_bank
 from rallysim.core.game import Game
 from rallysim.core.lanes import column
+from rallysim.core.serve import FedShots, MachineServe, Serve
 from rallysim.envs.rendering import RENDER_MODES, EnvView
 from rallysim.envs.simple_obs import (
     PLAYER_OBS_CENTRE,
@@ -92,6 +92,7 @@ SHAPING_GOOD = 0.001
 SHAPING_BAD = -0.005
 R_DIST_RATE = 0.5
 INCOMING = ("serve", "mixed", "rally")
+RALLY_SHOT_SHARE = {"mixed": 0.5, "rally": 1.0}  # games served a recorded rally shot
 LANDING_KEYS = ("landing_point", "landing_depth", "landing_error", "landed_in")
 
 
@@ -110,7 +111,6 @@ class ReturnTask:
             raise ValueError(f"keep_bodies must be True or False, got {keep_bodies!r}")
         self.keep_bodies = bool(keep_bodies)
         self._started = np.zeros(num_envs, bool)
-        self._bank: np.ndarray | None = None
         # anything but two real numbers fails the range check below
         lo, hi = (real_array(target_depth_range, "target_depth_range", (2,))
                   if np.shape(target_depth_range) == (2,) else (np.nan, np.nan))
@@ -119,7 +119,8 @@ class ReturnTask:
                              f"{target_depth_range}")
         positive_int(max_decisions, "max_decisions")
         self.n = num_envs
-        self.game = Game(num_envs, 1, shuttle=shuttle, seed=seed, shaping=True)
+        self.game = Game(num_envs, 1, shuttle=shuttle, seed=seed, shaping=True,
+                         serve=incoming_serve(incoming))
         self.depth_range = (lo, hi)
         self.max_decisions = max_decisions
         self.goal = np.zeros(num_envs)
@@ -129,7 +130,8 @@ class ReturnTask:
         envs = np.asarray(envs, np.int64)
         b, limit = self.game.bodies, self.game.bodies.limit
         given = self.reset_options(options, len(envs))
-        # The same draws whatever the options say, so an option changes only what it sets.
+        # The same draws whatever the options say, so an option changes only what it sets:
+        # the start here, the serve's (the game's serve strategy), then the goal.
         rngs = [self.game.rngs[e] for e in envs]
         base_x = given.get("base_x", np.array([r.uniform(*b.base_range) for r in rngs]))
         theta = given.get("arm_angle", np.array([r.uniform(-limit, limit) for r in rngs]))
@@ -141,8 +143,6 @@ class ReturnTask:
         self.game.reset(envs, receiver=0, base_x=base_x[:, None], theta=theta[:, None])
         b.omega[carry, 0] = omega
         self._started[envs] = True
-        if self.incoming != "serve":
-            self._player_shots(envs, rngs)
         self.goal[envs] = given.get("target_depth",
                                     np.array([r.uniform(*self.depth_range) for r in rngs]))
         self.elapsed[envs] = 0
@@ -153,17 +153,6 @@ class ReturnTask:
         return read_options(options, {"target_depth": ((k,), TARGET_DEPTH_RANGE),
                                       "base_x": ((k,), b.base_range),
                                       "arm_angle": ((k,), (-b.limit, b.limit))})
-
-    def _player_shots(self, envs: np.ndarray, rngs: list) -> None:
-        """Replace the serve by a recorded rally shot: always ("rally") or half the time
-        ("mixed"). The bank holds 4,096 shots of scripted players aiming at 2-6 m."""
-        if self._bank is None:
-            self._bank = load_shot_bank()
-        u = np.stack([r.random(2) for r in rngs])
-        take = np.ones(len(envs), bool) if self.incoming == "rally" else u[:, 0] < 0.5
-        if take.any():
-            rows = (u[take, 1] * len(self._bank)).astype(np.int64)
-            self.game.launch(envs[take], self._bank[rows, :3], self._bank[rows, 3:])
 
     def observe(self) -> np.ndarray:
         game = self.game
@@ -209,6 +198,14 @@ class ReturnTask:
                 "landed": landed, "landing_point": ev.land_point, "landing_depth": depth,
                 "landing_error": error, "landed_in": landed_in, "target_depth": goal}
         return reward, landed, truncated, info
+
+
+def incoming_serve(incoming: str) -> Serve:
+    """What comes over (``incoming``): the machine serve (``"serve"``), or a recorded rally
+    shot in its place always (``"rally"``) or half the time (``"mixed"``)."""
+    if incoming == "serve":
+        return MachineServe()
+    return FedShots(RALLY_SHOT_SHARE[incoming])
 
 
 def _spaces() -> tuple[spaces.Box, spaces.Box]:

@@ -11,6 +11,8 @@ from __future__ import annotations
 import numpy as np
 
 from rallysim.core.humanlike import HumanLikeBodies
+from rallysim.core.rules import SERVE_DRAWS
+from rallysim.core.serve import HumanLikeServe
 from rallysim.envs.humanlike_obs import PLAYER_OBS as OBS
 from rallysim.envs.humanlike_obs import player_observations as observe
 from rallysim.players.spec import GoalSpec, Layout, PlayerSpec, StartPose
@@ -23,9 +25,6 @@ TARGET_SPEED = (1.5, 4.5)  # m/s
 TARGET_ELEVATION = (np.radians(40.0), np.radians(50.0))
 TARGET_AZIMUTH = (np.radians(-30.0), np.radians(30.0))
 TARGET_SCALE = 5.0  # m/s: observed target = v* / 5; an option's components must lie in +-5
-SERVE_X, SERVE_Y, SERVE_Z = (1.0, 6.0), (-1.0, 1.0), (1.0, 1.5)  # receiver's own frame
-SERVE_LATERAL, SERVE_RISE, SERVE_TOWARD = (-0.5, 0.5), (2.0, 3.0), 3.0
-SERVE_SPEED = 15.0
 GOAL = GoalSpec(size=3, low=(-1.0, -1.0, -1.0), high=(1.0, 1.0, 1.0), default=(0.0, 0.0, 0.0),
                 unit="", mapping="target racket velocity: speed 1.5 + 1.5 (a0 + 1) m/s, "
                 "elevation 40 + 5 (a1 + 1) deg, azimuth 30 a2 deg (own frame)")
@@ -38,19 +37,6 @@ def sample_targets(u: np.ndarray) -> np.ndarray:
     azim = TARGET_AZIMUTH[0] + u[:, 2] * (TARGET_AZIMUTH[1] - TARGET_AZIMUTH[0])
     return speed[:, None] * np.stack([np.cos(elev) * np.cos(azim), np.cos(elev) * np.sin(azim),
                                       np.sin(elev)], axis=1)
-
-
-def sample_serves(u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """HUMAN-LIKE serves toward player 0 (world = its own frame) from uniforms ``u`` (n, 5):
-    positions and velocities, (n, 3) each."""
-    pos = np.stack([SERVE_X[0] + u[:, 0] * (SERVE_X[1] - SERVE_X[0]),
-                    SERVE_Y[0] + u[:, 1] * (SERVE_Y[1] - SERVE_Y[0]),
-                    SERVE_Z[0] + u[:, 2] * (SERVE_Z[1] - SERVE_Z[0])], axis=1)
-    direction = np.stack([np.full(len(u), -SERVE_TOWARD),
-                          SERVE_LATERAL[0] + u[:, 3] * (SERVE_LATERAL[1] - SERVE_LATERAL[0]),
-                          SERVE_RISE[0] + u[:, 4] * (SERVE_RISE[1] - SERVE_RISE[0])], axis=1)
-    direction /= np.linalg.norm(direction, axis=1, keepdims=True)
-    return pos, SERVE_SPEED * direction
 
 
 def make_bodies(n_envs: int, n_players: int) -> HumanLikeBodies:
@@ -79,6 +65,8 @@ PLAYER = HUMANLIKE = PlayerSpec(
     obs=OBS, low_obs=OBS.extended(("target_velocity", 3)),
     rally_obs=OBS.extended(("opponent_position", 3), ("my_turn", 1)),
     action=ACTION, goal=GOAL, start=StartPose(base_x=(-2.7, -2.7), base_y=(0.0, 0.0)),
+    # v0's rally drew the machine serve's uniforms, then the HUMAN-LIKE serve's in its place
+    serve=HumanLikeServe(unused_before=SERVE_DRAWS),
     observe=observe, low_observations=low_observations, scripted_low=scripted_low,
     scripted_task_low=AimedSwing, camera="three_quarter_close",
     low_env_id="RallySim/HumanLikeReturn-v0")

@@ -10,6 +10,7 @@ import numpy as np
 
 from rallysim.core.bodies import SimpleBodies
 from rallysim.core.game import PHYSICS_DT
+from rallysim.core.serve import MachineServe
 from rallysim.envs.simple_obs import PLAYER_OBS as OBS
 from rallysim.envs.simple_obs import TARGET_DEPTH_RANGE, normalise_depth
 from rallysim.envs.simple_obs import player_observations as observe
@@ -42,7 +43,8 @@ PLAYER = SIMPLE = PlayerSpec(
     name="simple", asset="simple_player.xml", make_bodies=make_bodies,
     obs=OBS, low_obs=OBS.extended(("goal_depth", 1)),
     rally_obs=OBS.extended(("opponent_position", 3), ("my_turn", 1)),
-    action=ACTION, goal=GOAL, start=StartPose(base_x=(-2.7, -2.44)), observe=observe,
+    action=ACTION, goal=GOAL, start=StartPose(base_x=(-2.7, -2.44)), serve=MachineServe(),
+    observe=observe,
     low_observations=low_observations, scripted_low=ScriptedController,
     scripted_task_low=scripted_task_low, camera="side",
     low_env_id="RallySim/SimpleReturn-v0")

@@ -97,6 +97,7 @@ class PlayerSpec:
     action: Layout
     goal: GoalSpec
     start: StartPose
+    serve: Any  # the serve that starts each rally (a rallysim.core.serve strategy)
     observe: Callable[[Any], np.ndarray]  # Game -> (N, P, obs.size), scaled, not yet clipped
     low_observations: Callable[[np.ndarray, np.ndarray], np.ndarray]  # rally obs, goals -> low
     scripted_low: Callable[[], Callable]  # () -> the rally's scripted low level (obs, goals)
