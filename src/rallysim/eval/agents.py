@@ -1,0 +1,115 @@
+"""Competitive players: what acts for one side of N batched games, every decision.
+
+An agent sees its side's rally observations and whether its turn has just begun, and returns
+that side's actions. Two shapes cover every policy RallySim has:
+
+- ``Hierarchical(high, low)``: a high level picks a goal when the agent's turn begins and holds
+  it; the low level swings toward it every decision (the paper's HRL, the scripted controller,
+  random goals, a league's learner);
+- ``Direct(policy)``: one network maps observations to actions every decision (Monolithic).
+
+``agent(name)`` builds the reference ladder's players and any exported policy by name (see
+``AGENT_NAMES``). Agents hold per-game state (the held goals), sized by ``start(n)``.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Protocol
+
+import numpy as np
+
+from rallysim.players import SIMPLE, PlayerSpec, get_player
+from rallysim.policies.callables import FixedGoal
+from rallysim.policies.registry import PRETRAINED, resolve
+from rallysim.policies.types import HighLevel, LowLevel, Policy
+
+AGENT_NAMES = {
+    "random": "goals drawn uniformly from the goal range, the shipped low level",
+    "scripted": "the scripted controller with the centre goal (4 m)",
+    "hrl": "the shipped cooperative HRL agent (simple_high over simple_low)",
+    "mono": "the shipped cooperative Monolithic agent (simple_mono)",
+    "simple_compete": "the shipped competitive champion (simple_compete_high over simple_low)",
+}
+
+
+class Agent(Protocol):
+    name: str
+
+    def start(self, n: int) -> None:
+        """Fresh state for ``n`` games."""
+
+    def act(self, obs: np.ndarray, started: np.ndarray, rows: np.ndarray) -> np.ndarray:
+        """Actions (M, action) for games ``rows`` (M,), given this side's observations (M, obs)
+        and whether its turn began at this decision (M,)."""
+
+
+class Hierarchical:
+    """A high level that picks a goal at the start of each turn, over a goal-following low
+    level; goals start at the player's default goal."""
+
+    def __init__(self, high: HighLevel, low: LowLevel, name: str = "hierarchical",
+                 player: PlayerSpec = SIMPLE) -> None:
+        self.high, self.low, self.name, self.player = high, low, name, player
+        self.goals = np.empty((0, *player.goal.shape))
+
+    def start(self, n: int) -> None:
+        self.goals = np.empty((n, *self.player.goal.shape))
+        self.goals[:] = self.player.goal.default
+
+    def act(self, obs: np.ndarray, started: np.ndarray, rows: np.ndarray) -> np.ndarray:
+        if started.any():
+            chosen = np.asarray(self.high(obs[started]), np.float64)
+            self.goals[rows[started]] = self.player.goal.clip(
+                chosen.reshape(self.goals[rows[started]].shape))
+        return self.low(obs, self.goals[rows])
+
+
+class Direct:
+    """One policy acting on the rally observation every decision (a Monolithic player)."""
+
+    def __init__(self, policy: Policy, name: str = "direct") -> None:
+        self.policy, self.name = policy, name
+
+    def start(self, n: int) -> None:
+        pass
+
+    def act(self, obs: np.ndarray, started: np.ndarray, rows: np.ndarray) -> np.ndarray:
+        return self.policy(obs)
+
+
+def agent(name: str, player: str | PlayerSpec = "simple", seed: int = 0,
+          low: LowLevel | str = "pretrained") -> Agent:
+    """The agent ``name`` names: one of ``AGENT_NAMES``, or the path prefix of an exported
+    policy (``PREFIX.json``): a high level (played over ``low``) or a Monolithic policy, told
+    apart by the role its JSON records."""
+    p = get_player(player)
+    if name == "random":
+        return Hierarchical(resolve("random", "high", p, seed), resolve(low, "rally_low", p),
+                            name, p)
+    if name == "scripted":
+        return Hierarchical(FixedGoal(p.goal.default), resolve("scripted", "rally_low", p),
+                            name, p)
+    if name == "hrl":
+        return Hierarchical(resolve("pretrained", "high", p), resolve(low, "rally_low", p),
+                            name, p)
+    if name == "mono":
+        return Direct(resolve("pretrained", "mono", p), name)
+    prefix = PRETRAINED / f"{p.name}_compete_high" if name == f"{p.name}_compete" else Path(name)
+    if not prefix.with_suffix(".json").is_file():
+        valid = ", ".join(map(repr, AGENT_NAMES))
+        raise ValueError(f"unknown competitive player {name!r}; valid: {valid}, or the path "
+                         "prefix of an exported high-level or Monolithic policy (PREFIX.json)")
+    role = _role(prefix)
+    if role == "mono":
+        return Direct(resolve(str(prefix), "mono", p), name)
+    return Hierarchical(resolve(str(prefix), "high", p), resolve(low, "rally_low", p), name, p)
+
+
+def _role(prefix: Path) -> str:
+    """``mono`` for a policy that acts on the rally every decision, else ``high``."""
+    doc = json.loads(prefix.with_suffix(".json").read_text())
+    metadata = doc.get("metadata") if isinstance(doc, dict) else None
+    stage = metadata.get("stage") if isinstance(metadata, dict) else None
+    return "mono" if stage == "mono" else "high"
