@@ -43,35 +43,58 @@ class Games:
         return len(self.winner)
 
 
+class Match:
+    """N games of agent ``a`` against agent ``b``, advanced one decision at a time: the one
+    loop behind ``play_games``, recorded videos and the live viewer. ``side[g]`` is (a's
+    player, b's player) in game g; ``live`` marks games still going."""
+
+    def __init__(self, a: Agent, b: Agent, n_games: int, seed: int = 0,
+                 config: RallyConfig | None = None) -> None:
+        if not isinstance(n_games, int) or n_games < 1:
+            raise ValueError(f"n_games must be a positive integer, got {n_games!r}")
+        config = config or RallyConfig(mode="competitive")
+        if config.mode != "competitive":
+            raise ValueError("competitive games need RallyConfig(mode='competitive')")
+        n = self.n = n_games
+        self.a, self.b = a, b
+        self.task = RallyTask(n, config, seed=seed)
+        self.task.reset(np.arange(n))
+        g = np.arange(n) % 2
+        self.side = np.stack([g, 1 - g], axis=1)
+        a.start(n)
+        b.start(n)
+        self.live = np.ones(n, bool)
+        self.actions = np.zeros((n, 2, self.task.action_size))
+
+    def step(self) -> tuple[np.ndarray, dict[str, Any]]:
+        """One decision of every live game: returns (games that ended, the rally core's
+        info); ``info["point_winner"]`` is a player index (-1: no point)."""
+        task, rows = self.task, np.flatnonzero(self.live)
+        obs = task.observe()
+        for who, agent in enumerate((self.a, self.b)):
+            s = self.side[rows, who]
+            self.actions[rows, s] = agent.act(obs[rows, s], task.turn_started[rows, s], rows)
+        _, over, _, info = task.step(np.clip(self.actions, -1.0, 1.0), active=self.live)
+        ended = self.live & over
+        self.live &= ~over
+        return ended, info
+
+
 def play_games(a: Agent, b: Agent, n_games: int, seed: int = 0, shuttle: str = "paper",
                max_decisions: int = DEFAULT_MAX_DECISIONS,
                config: RallyConfig | None = None) -> Games:
     """Play ``n_games`` games of ``a`` against ``b`` (see the module)."""
-    if not isinstance(n_games, int) or n_games < 1:
-        raise ValueError(f"n_games must be a positive integer, got {n_games!r}")
-    config = config or RallyConfig(shuttle=shuttle, mode="competitive")
-    if config.mode != "competitive":
-        raise ValueError("competitive games need RallyConfig(mode='competitive')")
-    n = n_games
-    task = RallyTask(n, config, seed=seed)
-    task.reset(np.arange(n))
-    side = np.stack([np.arange(n) % 2, 1 - np.arange(n) % 2], axis=1)  # (G, 2): a's, b's
-    a.start(n)
-    b.start(n)
-    live = np.ones(n, bool)
+    match = Match(a, b, n_games, seed, config or RallyConfig(shuttle=shuttle,
+                                                              mode="competitive"))
+    n, side = match.n, match.side
     out = Games(points=np.zeros((n, 2), np.int64), winner=np.full(n, -1),
                 decisions=np.zeros(n, np.int64), lets=np.zeros(n, np.int64),
                 point_game=np.zeros(0, np.int64), point_hits=np.zeros(0, np.int64),
                 point_a_won=np.zeros(0, bool))
     games, hits, a_won = [], [], []
-    actions = np.zeros((n, 2, task.action_size))
-    while live.any():
-        rows = np.flatnonzero(live)
-        obs = task.observe()
-        for who, agent in enumerate((a, b)):
-            s = side[rows, who]
-            actions[rows, s] = agent.act(obs[rows, s], task.turn_started[rows, s], rows)
-        _, over, _, info = task.step(np.clip(actions, -1.0, 1.0), active=live)
+    while match.live.any():
+        live = match.live.copy()
+        ended, info = match.step()
         out.decisions += live
         winner = info["point_winner"]
         scored = live & (winner >= 0)
@@ -84,11 +107,10 @@ def play_games(a: Agent, b: Agent, n_games: int, seed: int = 0, shuttle: str = "
             hits.append(info["rally_length"][g])
             a_won.append(won)
         out.lets += live & info["rally_over"] & (winner < 0)
-        ended = live & over
         if ended.any():
             g = np.flatnonzero(ended)
             out.winner[g] = np.where(out.points[g, 0] > out.points[g, 1], 0, 1)
-        live &= ~over & (out.decisions < max_decisions)
+        match.live &= out.decisions < max_decisions
     if games:
         out.point_game = np.concatenate(games)
         out.point_hits = np.concatenate(hits)
