@@ -16,14 +16,13 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Protocol
 
 import numpy as np
 
 from rallysim.players import SIMPLE, PlayerSpec, get_player
 from rallysim.policies.callables import FixedGoal
 from rallysim.policies.registry import PRETRAINED, resolve
-from rallysim.policies.types import HighLevel, LowLevel, Policy
+from rallysim.policies.types import Agent, HighLevel, LowLevel, Policy
 
 AGENT_NAMES = {
     "random": "goals drawn uniformly from the goal range, the shipped low level",
@@ -32,17 +31,6 @@ AGENT_NAMES = {
     "mono": "the shipped cooperative Monolithic agent (simple_mono)",
     "simple_compete": "the shipped competitive champion (simple_compete_high over simple_low)",
 }
-
-
-class Agent(Protocol):
-    name: str
-
-    def start(self, n: int) -> None:
-        """Fresh state for ``n`` games."""
-
-    def act(self, obs: np.ndarray, started: np.ndarray, rows: np.ndarray) -> np.ndarray:
-        """Actions (M, action) for games ``rows`` (M,), given this side's observations (M, obs)
-        and whether its turn began at this decision (M,)."""
 
 
 class Hierarchical:

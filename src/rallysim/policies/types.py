@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import Protocol
 
 import numpy as np
 
@@ -14,3 +15,17 @@ LowLevel = Callable[[np.ndarray, np.ndarray], np.ndarray]
 
 HighLevel = Callable[[np.ndarray], np.ndarray]
 """(M, observation) -> (M, *goal) goals: a rally's high level."""
+
+
+class Agent(Protocol):
+    """One side of N batched competitive games (``rallysim.eval.agents``), acting every
+    decision."""
+
+    name: str
+
+    def start(self, n: int) -> None:
+        """Fresh state for ``n`` games."""
+
+    def act(self, obs: np.ndarray, started: np.ndarray, rows: np.ndarray) -> np.ndarray:
+        """Actions (M, action) for games ``rows`` (M,), given this side's observations (M, obs)
+        and whether its turn began at this decision (M,)."""

@@ -25,7 +25,13 @@ from typing import Any
 from rallysim.core.shuttle import SHUTTLE_MODELS
 from rallysim.train import stages, values
 from rallysim.train.players import DEFAULT_PLAYER, PLAYERS
-from rallysim.train.sections import SECTIONS, EvalSettings, PPOSettings, WarmStartSettings
+from rallysim.train.sections import (
+    SECTIONS,
+    EvalSettings,
+    LeagueSettings,
+    PPOSettings,
+    WarmStartSettings,
+)
 from rallysim.train.values import SEED, SEED_MAX, Bound, at_least
 
 __all__ = ["CONFIG_DIR", "INCOMING", "SEED_MAX", "STAGES", "RenamedSetting", "TrainConfig",
@@ -70,6 +76,7 @@ class TrainConfig:
     ppo: PPOSettings = field(default_factory=PPOSettings)
     warm_start: WarmStartSettings = field(default_factory=WarmStartSettings)
     eval: EvalSettings = field(default_factory=EvalSettings)
+    league: LeagueSettings = field(default_factory=LeagueSettings)
 
     def __post_init__(self) -> None:
         # every value is checked here (and in the sections), so a bad one fails at

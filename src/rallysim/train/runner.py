@@ -46,7 +46,8 @@ class _Monitor:
     """SB3 callback: progress bar or heartbeat, evaluations and checkpoints on the run log's
     schedule, a row of the curve per rollout."""
 
-    def __init__(self, log: RunLog, progress: bool, beat: Heartbeat | None) -> None:
+    def __init__(self, log: RunLog, progress: bool, beat: Heartbeat | None,
+                 extra: Any = None) -> None:
         from stable_baselines3.common.callbacks import BaseCallback
 
         monitor = self
@@ -60,6 +61,7 @@ class _Monitor:
 
         self.callback = Callback()
         self.log, self.progress, self.beat = log, progress, beat
+        self.extra = extra  # the stage's own state (the compete stage's league)
         self.bar: Any = None
 
     def open_bar(self, done: int) -> None:
@@ -87,6 +89,8 @@ class _Monitor:
             self.bar.set_postfix_str(f"ep_rew {ep_rew:.3f}", refresh=False)
         if self.beat is not None:
             self.beat.update(steps)
+        if self.extra is not None:
+            self.log.stage.rollout_end(self.extra, model, self.log.say)
         if self.log.eval_due(steps):
             self.evaluate(model)
         if self.log.checkpoint_due(steps):
@@ -105,9 +109,11 @@ class _Monitor:
     def save(self, model: Any) -> None:
         config, out = self.log.config, self.log.out
         self.log.mark(int(model.num_timesteps))
-        ckpt.save_checkpoint(out, model, {
-            "stage": config.stage, "network": config.network(), "config": config.to_dict(),
-            "curve": self.log.curve})
+        meta = {"stage": config.stage, "network": config.network(),
+                "config": config.to_dict(), "curve": self.log.curve}
+        if self.extra is not None:
+            meta["stage_state"] = self.extra.state()
+        ckpt.save_checkpoint(out, model, meta)
         # the PPO checkpoint holds the clone and its results: the warm start's state is spent
         shutil.rmtree(warm_start_dir(out), ignore_errors=True)
 
@@ -166,8 +172,10 @@ def _train_stage(config: TrainConfig, out: Path, resume: bool, progress: bool,
         log.curve["warm_start"] = warm_start(model, config, progress and beat is None, out,
                                              warn, note)
     log.write_config()
+    extra = stages.of(config).begin(config, model, out,
+                                    None if found is None else found[1].get("stage_state"))
     log.start_clock()
-    monitor = _Monitor(log, progress, beat)
+    monitor = _Monitor(log, progress, beat, extra)
     remaining = config.budget - int(model.num_timesteps)
     monitor.open_bar(int(model.num_timesteps))
     try:

@@ -1,4 +1,4 @@
-"""The sections of a training configuration: ``ppo``, ``warm_start`` and ``eval``.
+"""The sections of a training configuration: ``ppo``, ``warm_start``, ``eval`` and ``league``.
 
 Each is a frozen dataclass that checks its own fields at construction (``rallysim.train.values``)
 and names them with its section in errors (``ppo.gamma must be in [0, 1], got 5``). In YAML
@@ -126,8 +126,49 @@ class EvalSettings:
                                                 "episodes": at_least(1), "seed": values.SEED})
 
 
+@dataclass(frozen=True)
+class LeagueSettings:
+    """The compete stage's opponents (``rallysim.train.league``): frozen snapshots of the
+    learner, a window of recent ones plus the latest, beside fixed anchor agents; or, with
+    ``opponents`` set, a fixed pool and no snapshots (a best response)."""
+
+    SECTION: ClassVar[str] = "league"
+
+    snapshot_every: int = 25_000  # turns between snapshots of the learner
+    win_threshold: float = 0.6  # a snapshot early once the learner wins this share of points
+    win_points: int = 2000  # ... counted over at least this many training points
+    window: int = 10  # recent snapshots kept in the pool beside the latest
+    latest_ratio: float = 0.5  # share of games against the latest snapshot
+    anchors: str = "scripted"  # comma-separated agents always in the pool ("none": none)
+    anchor_ratio: float = 0.2  # share of games against the anchors
+    # comma-separated agents or path prefixes: a fixed pool and no snapshots ("none": self-play)
+    opponents: str = "none"
+    max_decisions: int = 20_000  # per training game (lets between non-missing players)
+    eval_opponents: str = "scripted,hrl"  # the point-win rates an evaluation reports
+    rating_games: int = 8  # games per ladder agent when a snapshot is rated
+    ladder: str = "random,scripted,hrl,mono"  # the reference agents snapshots are rated against
+
+    def __post_init__(self) -> None:
+        values.check_fields(self, "league.", {}, _LEAGUE_BOUNDS)
+        if self.latest_ratio + self.anchor_ratio > 1.0:
+            raise ValueError("league.latest_ratio + league.anchor_ratio must be <= 1, got "
+                             f"{self.latest_ratio} + {self.anchor_ratio}")
+
+    @staticmethod
+    def names(text: str) -> list[str]:
+        """The agents a comma-separated setting names (``"none"``: none)."""
+        return [n.strip() for n in text.split(",") if n.strip() and n.strip() != "none"]
+
+
+_LEAGUE_BOUNDS: dict[str, Bound] = {
+    "snapshot_every": at_least(1), "win_threshold": within(0, 1), "win_points": at_least(1),
+    "window": at_least(0), "latest_ratio": within(0, 1), "anchor_ratio": within(0, 1),
+    "max_decisions": at_least(1), "rating_games": at_least(0),
+}
+
+
 SECTIONS: dict[str, type] = {cls.SECTION: cls for cls in (PPOSettings, WarmStartSettings,
-                                                          EvalSettings)}
+                                                          EvalSettings, LeagueSettings)}
 
 
 def section_fields(name: str) -> tuple[str, ...]:

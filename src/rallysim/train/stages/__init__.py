@@ -3,7 +3,9 @@
 - ``low`` (``LOW``, ``rallysim.train.stages.low``): the player's return task; budget in
   decisions; the only stage with a warm start;
 - ``high`` (``HIGH``, ``.high``): the turn-based rally over a frozen low level; budget in turns;
-- ``mono`` (``MONO``, ``.mono``): the rally at the physics rate; budget in player-decisions.
+- ``mono`` (``MONO``, ``.mono``): the rally at the physics rate; budget in player-decisions;
+- ``compete`` (``COMPETE``, ``.compete``): the competitive high level by self-play against a
+  league of its snapshots (``rallysim.train.league``); budget in turns.
 
 Each holds its env factory, evaluation, export and player table (``rallysim.train.stages.base.
 Stage``); both runners (SB3 and RLlib) run any of them the same way. The functions below take a
@@ -15,6 +17,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 from rallysim.train.stages.base import Act, Stage, rally_result
+from rallysim.train.stages.compete import COMPETE
 from rallysim.train.stages.high import HIGH
 from rallysim.train.stages.low import LOW
 from rallysim.train.stages.mono import MONO
@@ -23,11 +26,11 @@ if TYPE_CHECKING:
     from rallysim.train.config import TrainConfig
     from rallysim.train.sb3_vec import NativeVecEnv
 
-__all__ = ["HIGH", "LOW", "MONO", "NAMES", "STAGES", "Act", "Stage", "by_name", "evaluate",
-           "export_env", "goal_mapping", "headline",
+__all__ = ["COMPETE", "HIGH", "LOW", "MONO", "NAMES", "STAGES", "Act", "Stage", "by_name",
+           "evaluate", "export_env", "goal_mapping", "headline",
            "make_env", "of", "rally_result", "score"]
 
-STAGES: dict[str, Stage] = {stage.name: stage for stage in (LOW, HIGH, MONO)}
+STAGES: dict[str, Stage] = {stage.name: stage for stage in (LOW, HIGH, MONO, COMPETE)}
 NAMES: tuple[str, ...] = tuple(STAGES)
 
 

@@ -10,6 +10,7 @@ that reading a configuration (which checks it against the stages) stays light.
 from __future__ import annotations
 
 from collections.abc import Callable
+from pathlib import Path
 from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
@@ -68,6 +69,15 @@ class Stage:
     def clone_task(self, config: TrainConfig) -> CloneTask:
         """Where a warm start's teacher and clone play (``warm_starts``)."""
         raise ValueError(f"the {self.name} stage has no warm start")
+
+    def begin(self, config: TrainConfig, model: Any, out: Path,
+              state: dict[str, Any] | None) -> Any:
+        """Stage state beside PPO (the compete stage's league), restored from a checkpoint's
+        ``state`` or new; None for stages without any."""
+        return None
+
+    def rollout_end(self, extra: Any, model: Any, say: Any) -> None:
+        """After each PPO rollout, with ``begin``'s object."""
 
     def decisions_simulated(self, vec_env: NativeVecEnv, steps: int) -> int:
         """Decisions simulated by a training env after ``steps`` steps (the same, unless a

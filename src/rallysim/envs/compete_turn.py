@@ -1,0 +1,179 @@
+"""The competitive game from one player's seat, turn by turn: the league's training env.
+
+N batched games under badminton scoring (``RallyConfig(mode="competitive")``). The learner is
+player ``g % 2`` in game ``g`` (both sides of the court, both first serves). Each ``step`` is
+one of the learner's turns: its action (in [-1, 1], mapped onto a goal by the player's goal
+mapping; SIMPLE: a landing depth of 4 + 2a m) is held while its frozen low level swings toward
+it, and the opponent (an agent of ``rallysim.eval.agents``: a hierarchical or a Monolithic
+player, frozen) plays its own turns inside the span, until the learner's next turn begins.
+
+- Observation: the learner's rally observation (20 values for SIMPLE), in its own frame.
+- Reward: the points of the span, +1 won and -1 lost.
+- Episode: one game (21 points, won by 2, capped at 30), ``terminated`` at its end;
+  ``truncated`` once it has run ``max_decisions`` decisions (lets between players who never
+  miss would replay for ever).
+- Opponents: each game draws its opponent when it starts, from ``opponents`` with
+  probabilities ``weights`` (``set_opponents`` changes them for the games that start next).
+- ``info``: ``points_won``, ``points_lost``, ``decisions`` of the span; at a game's end
+  ``score`` (learner, opponent) and ``opponent`` (its index in the list it was drawn from).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+
+from rallysim.envs.rally_task import RallyConfig, RallyTask
+from rallysim.envs.validation import positive_int
+from rallysim.envs.vector_base import SAME_STEP, NativeVectorEnv
+from rallysim.policies.registry import resolve
+from rallysim.policies.types import Agent, LowLevel
+
+
+class CompeteTurnVectorEnv(NativeVectorEnv):
+    """The learner's turns of N competitive games against frozen opponents (see the module)."""
+
+    metadata = {"render_modes": [], "autoreset_mode": SAME_STEP}
+    rally: type[RallyTask] = RallyTask
+
+    def __init__(self, num_envs: int, opponents: Sequence[Agent],
+                 weights: Sequence[float] | None = None, low_level: LowLevel | str = "pretrained",
+                 seed: int | None = None, autoreset_mode: str = "same_step",
+                 max_decisions: int = 20_000, shuttle: str = "paper") -> None:
+        self._setup(num_envs, autoreset_mode)
+        self.max_decisions = positive_int(max_decisions, "max_decisions")
+        spec = self.rally.spec
+        n = self.num_units
+        self.task = self.rally(n, RallyConfig(shuttle=shuttle, mode="competitive"), seed)
+        self.low = resolve(low_level, "rally_low", spec)
+        self.side = np.arange(n) % 2
+        self.goals = np.empty((n, *spec.goal.shape))
+        self.goals[:] = spec.goal.default
+        self.elapsed = np.zeros(n, np.int64)
+        self.rng = np.random.default_rng(seed)
+        self.opponent_of = np.zeros(n, np.int64)
+        self.set_opponents(opponents, weights)
+        self.decisions_simulated = 0
+        self._tally = np.zeros(2, np.int64)  # points won, lost since take_tally()
+        obs_size = self.rally.obs_size
+        self.single_observation_space = spaces.Box(-1.0, 1.0, (obs_size,), np.float32)
+        self.single_action_space = spaces.Box(-1.0, 1.0, (spec.goal.size,), np.float32)
+        self.observation_space = spaces.Box(-1.0, 1.0, (n, obs_size), np.float32)
+        self.action_space = spaces.Box(-1.0, 1.0, (n, spec.goal.size), np.float32)
+
+    # -- opponents ------------------------------------------------------------------------------
+    def set_opponents(self, opponents: Sequence[Agent],
+                      weights: Sequence[float] | None = None) -> None:
+        """The agents that games starting from now are drawn from, with ``weights``
+        (default: equal). Games under way keep the opponent they drew."""
+        opponents = list(opponents)
+        if not opponents:
+            raise ValueError("need at least one opponent")
+        w = np.ones(len(opponents)) if weights is None else np.asarray(weights, np.float64)
+        if w.shape != (len(opponents),) or not np.all(np.isfinite(w)) or (w < 0).any() \
+                or w.sum() <= 0:
+            raise ValueError(f"weights must be {len(opponents)} non-negative finite numbers "
+                             f"with a positive sum, got {weights!r}")
+        if not hasattr(self, "_agent_of"):
+            self._agent_of: list[Agent] = [opponents[0]] * self.num_units
+            self._started: dict[int, Agent] = {}
+        # an agent keeps its per-game state (held goals) while games against it go on: only
+        # agents new to this env start afresh; the dict pins them, so no id is reused
+        in_use = {id(a) for a in self._agent_of}
+        self._started = {k: a for k, a in self._started.items() if k in in_use}
+        for agent in opponents:
+            if id(agent) not in self._started:
+                agent.start(self.num_units)
+                self._started[id(agent)] = agent
+        self.opponents, self.weights = opponents, w / w.sum()
+
+    def take_tally(self) -> np.ndarray:
+        """Points (won, lost) by the learner since the last call."""
+        tally, self._tally = self._tally, np.zeros(2, np.int64)
+        return tally
+
+    def _draw_opponents(self, units: np.ndarray) -> None:
+        picks = self.rng.choice(len(self.opponents), size=len(units), p=self.weights)
+        for u, k in zip(units.tolist(), picks.tolist(), strict=True):
+            self._agent_of[u] = self.opponents[k]
+            self.opponent_of[u] = k
+
+    # -- NativeVectorEnv ------------------------------------------------------------------------
+    def _seed_units(self, seeds: list[int]) -> None:
+        self.task.game.seed_each(seeds)
+        self.rng = np.random.default_rng(seeds[0])
+
+    def _reset_units(self, units: np.ndarray, options: dict | None) -> None:
+        self.task.reset(units)
+        self.goals[units] = self.rally.spec.goal.default
+        self.elapsed[units] = 0
+        self._draw_opponents(units)
+        # play until the learner's first turn (the opponent may receive the first serve)
+        self._advance(units, fresh=True)
+
+    def _step_units(self, actions: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
+        from rallysim.envs.validation import validate_actions
+
+        a = validate_actions(actions, (self.num_envs, self.rally.spec.goal.size))
+        units = np.setdiff1d(np.arange(self.num_units), self._pending)
+        goals = self.rally.spec.goal.from_action(a)
+        self.goals[units] = goals[units].reshape(self.goals[units].shape)
+        return self._advance(units)
+
+    def _observe(self) -> np.ndarray:
+        return self.task.observe()[np.arange(self.num_units), self.side]
+
+    # -- the span -------------------------------------------------------------------------------
+    def _advance(self, units: np.ndarray, fresh: bool = False,
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
+        """Play games ``units`` until the learner's turn begins, the game ends or its decision
+        limit is reached; ``fresh`` games stop at once if the serve comes to the learner."""
+        n, task = self.num_units, self.task
+        running = np.zeros(n, bool)
+        running[units] = True
+        won = np.zeros(n, np.int64)
+        lost = np.zeros(n, np.int64)
+        decisions = np.zeros(n, np.int64)
+        term = np.zeros(n, bool)
+        trunc = np.zeros(n, bool)
+        learner, opponent = self.side, 1 - self.side
+        actions = np.zeros((n, 2, task.action_size))
+        if fresh:
+            running &= ~task.turn_started[np.arange(n), learner]
+        while running.any():
+            rows = np.flatnonzero(running)
+            obs = task.observe()
+            actions[rows, learner[rows]] = self.low(obs[rows, learner[rows]], self.goals[rows])
+            for agent, members in self._groups(rows):
+                s = opponent[members]
+                actions[members, s] = agent.act(obs[members, s], task.turn_started[members, s],
+                                                members)
+            _, over, _, info = task.step(np.clip(actions, -1.0, 1.0), active=running)
+            decisions += running
+            self.elapsed += running
+            winner = info["point_winner"]
+            scored = running & (winner >= 0)
+            won += scored & (winner == learner)
+            lost += scored & (winner != learner)
+            term |= running & over
+            trunc |= running & ~over & (self.elapsed >= self.max_decisions)
+            turn = task.turn_started[np.arange(n), learner]
+            running &= ~(over | turn | trunc)
+        self.decisions_simulated += int(decisions.sum())
+        self._tally += [int(won.sum()), int(lost.sum())]
+        reward = (won - lost).astype(np.float64)
+        info = {"points_won": won, "points_lost": lost, "decisions": decisions,
+                "score": np.stack([task.score[np.arange(n), learner],
+                                   task.score[np.arange(n), opponent]], axis=1),
+                "opponent": self.opponent_of.copy()}
+        return reward, term, trunc, info
+
+    def _groups(self, rows: np.ndarray) -> list[tuple[Agent, np.ndarray]]:
+        """The games of ``rows`` grouped by the agent they play against, in a fixed order."""
+        order: dict[int, list[int]] = {}
+        for r in rows.tolist():
+            order.setdefault(id(self._agent_of[r]), []).append(r)
+        return [(self._agent_of[m[0]], np.array(m)) for m in order.values()]

@@ -1,0 +1,174 @@
+"""The compete stage's league: who the learner plays, when it is copied, how copies are rated.
+
+The pool (after ML-Agents' ghost trainer): frozen snapshots of the learner, exported as policy
+files (``RUN/pool/snapshot_{turns:012d}.{safetensors,json}``). A game draws its opponent:
+
+- the latest snapshot with probability ``league.latest_ratio``;
+- one of the ``league.anchors`` (fixed agents of ``rallysim.eval.agents``, e.g. the scripted
+  controller) with probability ``league.anchor_ratio``, uniformly;
+- otherwise one of the ``league.window`` snapshots before the latest, uniformly (the latest
+  when there are none yet).
+
+A snapshot is taken when the run starts (the untrained learner), every
+``league.snapshot_every`` turns, and early once the learner has won ``league.win_threshold``
+of the last ``league.win_points`` or more training points against the pool. Each new snapshot
+plays ``league.rating_games`` games against every agent of ``league.ladder``; OpenSkill rates
+them (``rallysim.eval.ratings``), and the ratings go to the run's TensorBoard log and its
+checkpoints. With ``league.opponents`` set, the pool is those agents alone, fixed: the stage
+then trains a best response (exploitability) and takes no snapshots.
+
+Everything the league holds is saved in the stage's checkpoints as JSON (snapshot files,
+ratings, the env's opponent stream), so a resumed run (after ``kill -9``) continues the same
+league.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from rallysim.eval.agents import Hierarchical, agent
+from rallysim.players import get_player
+from rallysim.policies.registry import resolve
+from rallysim.policies.types import Agent
+
+if TYPE_CHECKING:
+    from rallysim.envs.compete_turn import CompeteTurnVectorEnv
+    from rallysim.train.config import TrainConfig
+
+POOL = "pool"
+
+
+class League:
+    """The pool and ratings of one compete run (see the module)."""
+
+    def __init__(self, config: TrainConfig, out: Path, env: CompeteTurnVectorEnv) -> None:
+        self.config, self.out, self.env = config, Path(out), env
+        settings = config.league
+        self.fixed = settings.names(settings.opponents)
+        self.anchor_names = [] if self.fixed else settings.names(settings.anchors)
+        self.low = resolve(config.low_policy, "rally_low", config.player)
+        self.anchors = [self._agent(n) for n in (self.fixed or self.anchor_names)]
+        self.snapshots: list[dict[str, Any]] = []  # {"name", "turns"}, oldest first
+        self._agents: dict[str, Agent] = {}
+        self.last_snapshot = 0
+        self.tally = np.zeros(2, np.int64)  # training points won, lost since the last snapshot
+        self.ratings: dict[str, Any] = {}
+        self.history: list[dict[str, Any]] = []  # per snapshot: turns, rating
+
+    @property
+    def self_play(self) -> bool:
+        return not self.fixed
+
+    def _agent(self, name: str) -> Agent:
+        return agent(name, self.config.player, seed=self.config.seed, low=self.low)
+
+    def snapshot_agent(self, name: str) -> Agent:
+        if name not in self._agents:
+            prefix = self.out / POOL / name
+            high = resolve(str(prefix), "high", self.config.player)
+            self._agents[name] = Hierarchical(high, self.low, name,
+                                              get_player(self.config.player))
+        return self._agents[name]
+
+    # -- the pool -------------------------------------------------------------------------------
+    def opponents(self) -> tuple[list[Agent], list[float]]:
+        """The agents games are drawn from and their weights."""
+        s = self.config.league
+        if not self.self_play:
+            return self.anchors, [1.0] * len(self.anchors)
+        latest = self.snapshot_agent(self.snapshots[-1]["name"])
+        window = [self.snapshot_agent(x["name"]) for x in self.snapshots[-1 - s.window:-1]]
+        agents: list[Agent] = [latest]
+        weights = [s.latest_ratio]
+        rest = 1.0 - s.latest_ratio - (s.anchor_ratio if self.anchors else 0.0)
+        if window:
+            agents += window
+            weights += [rest / len(window)] * len(window)
+        else:
+            weights[0] += rest
+        if self.anchors:
+            agents += self.anchors
+            weights += [s.anchor_ratio / len(self.anchors)] * len(self.anchors)
+        return agents, weights
+
+    def refresh(self) -> None:
+        self.env.set_opponents(*self.opponents())
+
+    def record_points(self) -> None:
+        """Take the points the env counted since the last call."""
+        self.tally += self.env.take_tally()
+
+    def snapshot_due(self, turns: int) -> bool:
+        if not self.self_play:
+            return False
+        s = self.config.league
+        if turns - self.last_snapshot >= s.snapshot_every:
+            return True
+        played = int(self.tally.sum())
+        return played >= s.win_points and self.tally[0] / played >= s.win_threshold
+
+    def add_snapshot(self, model: Any, turns: int) -> dict[str, Any]:
+        """Export the learner as a new snapshot, rate it against the ladder, refresh the pool.
+        Returns the snapshot's record."""
+        from rallysim.train.export import save_policy
+
+        name = f"snapshot_{turns:012d}"
+        won, lost = (int(v) for v in self.tally)
+        save_policy(model, self.out / POOL / name,
+                    env_id="rallysim.envs.compete_turn:CompeteTurnVectorEnv",
+                    metadata={"stage": "compete", "player": self.config.player,
+                              "seed": self.config.seed, "steps": turns,
+                              "goal_mapping": get_player(self.config.player).goal.mapping})
+        record = {"name": name, "turns": turns, "train_points_won": won,
+                  "train_points_lost": lost}
+        self.snapshots.append(record)
+        self.last_snapshot = turns
+        self.tally[:] = 0
+        record.update(self.rate(name))
+        self.history.append(dict(record))
+        self.refresh()
+        return record
+
+    def rate(self, name: str) -> dict[str, Any]:
+        """Games of snapshot ``name`` against the ladder, rated with OpenSkill: its rating
+        and its point-win rate against each ladder agent."""
+        s = self.config.league
+        if not s.rating_games:
+            return {}
+        from rallysim.eval.competitive import play_games, summarise
+        from rallysim.eval.ratings import Ratings
+
+        ratings = Ratings.from_json(self.ratings) if self.ratings else Ratings()
+        me = self.snapshot_agent(name)
+        rates: dict[str, float] = {}
+        for i, other in enumerate(s.names(s.ladder)):
+            games = play_games(me, self._agent(other), s.rating_games,
+                               seed=self.config.eval.seed + i, shuttle=self.config.shuttle,
+                               max_decisions=s.max_decisions)
+            ratings.update(name, other, games)
+            rates[other] = summarise(games, n_boot=200)["point_win_rate"]["value"]
+        self.ratings = ratings.to_json()
+        return {"rating": ratings.ordinal(name), "point_win_rate": rates}
+
+    # -- resume ---------------------------------------------------------------------------------
+    def state(self) -> dict[str, Any]:
+        return {"snapshots": self.snapshots, "last_snapshot": self.last_snapshot,
+                "tally": self.tally.tolist(), "ratings": self.ratings,
+                "history": self.history, "rng": self.env.rng.bit_generator.state}
+
+    def restore(self, state: dict[str, Any]) -> None:
+        self.snapshots = list(state["snapshots"])
+        self.last_snapshot = int(state["last_snapshot"])
+        self.tally = np.asarray(state["tally"], np.int64)
+        self.ratings = dict(state["ratings"])
+        self.history = list(state["history"])
+        missing = [x["name"] for x in self.snapshots
+                   if not (self.out / POOL / f"{x['name']}.json").is_file()]
+        if missing:
+            raise FileNotFoundError(f"the league's snapshot(s) {', '.join(missing)} are "
+                                    f"missing from {self.out / POOL}; restart the run")
+        self.refresh()
+        self.env.rng.bit_generator.state = state["rng"]

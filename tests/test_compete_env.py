@@ -1,0 +1,113 @@
+"""The competitive game from the learner's seat (``rallysim.envs.compete_turn``): rewards are
+points, where the learner sends the shuttle decides them, seeded games replay, copies play on,
+and the opponent pool draws games by its weights."""
+
+from __future__ import annotations
+
+import copy
+import pickle
+
+import numpy as np
+import pytest
+
+from rallysim.envs.compete_turn import CompeteTurnVectorEnv
+from rallysim.eval.agents import agent
+from rallysim.players import SIMPLE
+
+
+def _env(n: int = 16, seed: int = 7, opponents=None, **kw) -> CompeteTurnVectorEnv:
+    return CompeteTurnVectorEnv(n, opponents or [agent("scripted")], seed=seed, **kw)
+
+
+def _play(env: CompeteTurnVectorEnv, action: float, steps: int) -> tuple[int, int, float]:
+    won = lost = 0
+    total = 0.0
+    for _ in range(steps):
+        _, reward, _, _, info = env.step(np.full((env.num_envs, 1), action, np.float32))
+        won += int(info["points_won"].sum())
+        lost += int(info["points_lost"].sum())
+        total += float(reward.sum())
+    return won, lost, total
+
+
+def test_spaces_and_sides():
+    env = _env(4)
+    obs, _ = env.reset(seed=1)
+    assert obs.shape == (4, SIMPLE.rally_obs.size) and obs.dtype == np.float32
+    assert env.single_action_space.shape == (1,)
+    assert (env.single_action_space.low, env.single_action_space.high) == (-1.0, 1.0)
+    assert env.side.tolist() == [0, 1, 0, 1]  # the learner sits on both sides
+    # every game waits at the learner's turn, "my turn" set in its observation
+    assert (obs[:, -1] == 1.0).all()
+
+
+def test_reward_is_the_point_margin_and_deep_shots_win():
+    # goal 6 m (a = 1) beats the scripted controller; 3 m (a = -0.5) loses to it (seed 7:
+    # 90-29 and 17-133 over 60 turns of 16 games)
+    deep = _play(_env(), 1.0, 60)
+    short = _play(_env(), -0.5, 60)
+    for won, lost, total in (deep, short):
+        assert total == won - lost
+    assert deep[0] / (deep[0] + deep[1]) > 0.65
+    assert short[0] / (short[0] + short[1]) < 0.25
+
+
+def test_seeded_replay_and_copies():
+    a, b = _env(8, seed=3), _env(8, seed=99)
+    a.reset(seed=11)
+    b.reset(seed=11)
+    actions = np.random.default_rng(0).uniform(-1, 1, (12, 8, 1)).astype(np.float32)
+    for act in actions[:6]:
+        ra = a.step(act)
+        rb = b.step(act)
+        np.testing.assert_array_equal(ra[0], rb[0])
+        np.testing.assert_array_equal(ra[1], rb[1])
+    clones = [copy.deepcopy(a), pickle.loads(pickle.dumps(a))]
+    for act in actions[6:]:
+        obs, reward = a.step(act)[:2]
+        np.testing.assert_array_equal(reward, b.step(act)[1])
+        for clone in clones:
+            c_obs, c_reward = clone.step(act)[:2]
+            np.testing.assert_array_equal(c_obs, obs)
+            np.testing.assert_array_equal(c_reward, reward)
+
+
+def test_games_end_and_reset_in_the_same_step():
+    env = _env(2, max_decisions=3000)
+    env.reset(seed=5)
+    ended = 0
+    for _ in range(400):
+        _, _, term, trunc, info = env.step(np.ones((2, 1), np.float32))
+        if (term | trunc).any():
+            ended += int((term | trunc).sum())
+            score = info["final_info"]["score"][term]
+            # a finished game has a winner with 21 or more points
+            assert (score.max(axis=1) >= 21).all()
+            assert np.isfinite(info["final_obs"][term | trunc]).all()
+    assert ended >= 1
+    assert env.elapsed.max() < 3000
+
+
+def test_opponents_follow_their_weights():
+    scripted, hrl = agent("scripted"), agent("hrl")
+    env = _env(64, opponents=[scripted, hrl], weights=[0.0, 1.0])
+    env.reset(seed=2)
+    assert (env.opponent_of == 1).all()
+    env.set_opponents([scripted, hrl], [3.0, 1.0])
+    env.reset(seed=2)
+    share = (env.opponent_of == 0).mean()
+    assert 0.6 < share < 0.9  # 0.75 expected over 64 draws
+
+
+@pytest.mark.parametrize("weights", [[1.0], [-1.0, 2.0], [0.0, 0.0], [np.nan, 1.0]])
+def test_bad_weights_are_refused(weights):
+    env = _env(2)
+    before = env.opponents
+    with pytest.raises(ValueError, match="weights"):
+        env.set_opponents([agent("scripted"), agent("random")], weights)
+    assert env.opponents is before
+
+
+def test_no_opponent_is_refused():
+    with pytest.raises(ValueError, match="at least one opponent"):
+        CompeteTurnVectorEnv(2, [], seed=0)
