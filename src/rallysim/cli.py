@@ -15,17 +15,25 @@ import tempfile
 import time
 from collections.abc import Callable
 from pathlib import Path
-from typing import NoReturn
+from typing import TYPE_CHECKING, NoReturn
 
 import numpy as np
 
 from rallysim.core.shuttle import SHUTTLE_MODELS
+
+if TYPE_CHECKING:
+    from rallysim.eval.agents import Agent
 
 # TrainConfig's bound (train/config.py SEED_MAX; not imported: it needs the train extra's yaml)
 SEED_MAX = 2**31 - 1
 # render --size: every frame is held in memory (4096x4096 RGB is 48 MiB) and OpenGL caps
 # its render buffers; beyond this a typo like 100000x100000 would fail deep in the renderer
 MAX_SIDE = 4096
+# render --players: a game's frames are held in memory too (an hour of 640x360 is 25 GB)
+MATCH_DECISIONS_MAX = 36_000
+DECISION_SECONDS = 0.1  # game time per decision (core.game's physics steps of a decision)
+# play --opponent: until the competitive champion (simple_compete) ships
+DEFAULT_OPPONENT = "scripted"
 
 
 class UsageError(Exception):
@@ -265,11 +273,17 @@ def _rally_policies(player: str, low: str, high: str, seed: int,
 
 
 def _render(args: argparse.Namespace) -> int:
-    """Write an MP4, a GIF and a strip of stills of N episodes (or rallies)."""
+    """Write an MP4, a GIF and a strip of stills of N episodes (or rallies), or of competitive
+    games between two agents (``--players``)."""
     from rallysim.envs.rally_task import RallyConfig
-    from rallysim.render import write_strip, write_video
     from rallysim.render.record import record_low_level, record_rally
 
+    if args.players is not None:
+        return _render_match(args)
+    if args.decisions is not None or args.seconds is not None:
+        raise UsageError("--decisions and --seconds limit the games of --players; rallies "
+                         "and episodes play to their end")
+    episodes = 2 if args.episodes is None else args.episodes
     policy, high_name = _policies(args)
     out = Path(args.out)
     tag = "" if args.player == "simple" else f"{args.player}_"
@@ -286,15 +300,24 @@ def _render(args: argparse.Namespace) -> int:
     out.mkdir(parents=True, exist_ok=True)
     width, height = args.size
     camera = args.camera  # None: the player kind's default
-    print(f"rendering {args.episodes} {args.env} episode(s) with policy {policy!r} ...",
+    print(f"rendering {episodes} {args.env} episode(s) with policy {policy!r} ...",
           flush=True)
     if args.env == "low":
-        frames = record_low_level(args.episodes, low, args.seed, args.shuttle, width, height,
+        frames = record_low_level(episodes, low, args.seed, args.shuttle, width, height,
                                   camera, player=args.player)
     else:
         config = RallyConfig(shuttle=args.shuttle, mode=args.mode)
-        frames = record_rally(args.episodes, high, rally_low, args.seed, config, width, height,
+        frames = record_rally(episodes, high, rally_low, args.seed, config, width, height,
                               camera, player=args.player)
+    _write_outputs(frames, outputs, args)
+    return 0
+
+
+def _write_outputs(frames: list[np.ndarray], outputs: tuple[Path, Path, Path],
+                   args: argparse.Namespace) -> None:
+    """The MP4, the GIF (every ``--gif-every``-th frame) and the strip of ``--stills``."""
+    from rallysim.render import write_strip, write_video
+
     mp4, gif, strip = outputs
     write_video(frames, mp4, fps=10)
     write_video(frames[:: args.gif_every], gif, fps=10 / args.gif_every)
@@ -303,6 +326,59 @@ def _render(args: argparse.Namespace) -> int:
     print(f"  wrote {mp4}")
     print(f"  wrote {gif}")
     print(f"  wrote {strip}  ({len(frames)} frames)")
+
+
+def _match_decisions(args: argparse.Namespace) -> int | None:
+    """The decision limit of each game from ``--decisions`` or ``--seconds`` (of game time);
+    None: the recorder's default."""
+    if args.seconds is None:
+        return args.decisions
+    decisions = max(1, round(args.seconds / DECISION_SECONDS))
+    if decisions > MATCH_DECISIONS_MAX:
+        raise UsageError(f"--seconds must be at most {MATCH_DECISIONS_MAX * DECISION_SECONDS:g} "
+                         f"(a game's frames are held in memory), got {args.seconds:g}")
+    return decisions
+
+
+def _render_match(args: argparse.Namespace) -> int:
+    """``render --mode competitive --players A B``: games of agent A against agent B, played
+    by ``rallysim.eval.competitive.Match``, with their score in the HUD."""
+    from rallysim.envs.rally_task import RallyConfig
+    from rallysim.eval.agents import agent
+    from rallysim.render.record import record_match
+
+    if len(args.players) != 2:
+        raise UsageError(f"--players takes two names, player A and player B, got "
+                         f"{len(args.players)}: {' '.join(args.players)}")
+    if args.mode != "competitive":
+        raise UsageError("--players plays competitive games: add --mode competitive")
+    if args.env != "rally":
+        raise UsageError("--players plays rallies, not the low-level task: drop --env low")
+    if args.player != "simple":
+        raise UsageError("--players: competitive agents are SIMPLE players (no --player "
+                         "humanlike)")
+    if args.policy is not None or args.high is not None:
+        raise UsageError("--players: each agent brings its own levels; drop --policy and --high")
+    decisions = _match_decisions(args)
+    games = 1 if args.episodes is None else args.episodes
+    out = Path(args.out)
+    a_name, b_name = (Path(name).name for name in args.players)
+    stem = out / f"match_{a_name}_vs_{b_name}"
+    outputs = (stem.with_suffix(".mp4"), stem.with_suffix(".gif"),
+               stem.with_name(stem.name + "_strip.png"))
+    for path in outputs:
+        _require(path, "file")
+    # the agents first: an unknown name fails before the folder is made or anything announced
+    a, b = (agent(name, "simple", args.seed) for name in args.players)
+    out.mkdir(parents=True, exist_ok=True)
+    width, height = args.size
+    limit = "" if decisions is None else f", at most {decisions} decisions each"
+    print(f"rendering {games} game(s) of {args.players[0]!r} against {args.players[1]!r}"
+          f"{limit} ...", flush=True)
+    config = RallyConfig(shuttle=args.shuttle, mode="competitive")
+    kwargs = {} if decisions is None else {"max_decisions": decisions}
+    frames = record_match(a, b, games, args.seed, config, width, height, args.camera, **kwargs)
+    _write_outputs(frames, outputs, args)
     return 0
 
 
@@ -319,20 +395,61 @@ def _play(args: argparse.Namespace) -> int:
     player's actions, a HUMAN-LIKE player's goals)."""
     from rallysim.envs.rally_task import RallyConfig
     from rallysim.envs.rendering import has_display
-    from rallysim.render.play import play
+    from rallysim.render.play import play, play_match
 
+    human = None if args.human == "none" else int(args.human)
+    # the opponent first: a bad command line or name is told with or without a display
+    opponent = _opponent(args) if _check_opponent(args, human) else None
     if not has_display():
         raise UsageError("a display is needed (DISPLAY is unset); use `rallysim render` to "
                          "write videos instead")
-    human = None if args.human == "none" else int(args.human)
+    config = RallyConfig(shuttle=args.shuttle, mode=args.mode)
+    if opponent is not None:
+        board = play_match(opponent, human, config, args.seed, seconds=args.seconds)
+        if board.point_winners:
+            print(f"points played: {len(board.point_winners)}, score {board.score_line}"
+                  + "".join(f", game {k + 1} to {board.result(s)}"
+                            for k, s in enumerate(board.games)))
+        return 0
     low, high = _policies(args)
     high_level, low_level = _rally_policies(args.player, low, high, args.seed)
-    lengths = play(low_level, high_level, human=human,
-                   config=RallyConfig(shuttle=args.shuttle, mode=args.mode), seed=args.seed,
+    lengths = play(low_level, high_level, human=human, config=config, seed=args.seed,
                    seconds=args.seconds, player=args.player)
     if lengths:
         print(f"rallies played: {len(lengths)}, mean length {np.mean(lengths):.1f}")
     return 0
+
+
+def _check_opponent(args: argparse.Namespace, human: int | None) -> bool:
+    """Whether ``play`` puts the person against a competitive agent (``play_match``): a SIMPLE
+    competitive game with a person at the keyboard. ``--opponent`` anywhere else is refused:
+    cooperative rallies and HUMAN-LIKE games keep the shared high and low levels."""
+    against_agent = args.mode == "competitive" and args.player == "simple" and human is not None
+    if args.opponent is None or against_agent:
+        if args.opponent is not None and (args.policy is not None or args.high is not None):
+            raise UsageError("--opponent brings its own levels: drop --policy and --high")
+        return against_agent
+    if args.player != "simple":
+        raise UsageError("--opponent: competitive agents are SIMPLE players; HUMAN-LIKE play "
+                         "keeps the shared levels of --policy and --high")
+    if args.mode != "competitive":
+        raise UsageError("--opponent plays a competitive game: it needs --mode competitive")
+    raise UsageError("--opponent is the opponent of a person at the keyboard (--human 0 or 1); "
+                     "to watch two agents, use `rallysim render --mode competitive --players A "
+                     "B`")
+
+
+def _opponent(args: argparse.Namespace) -> Agent:
+    """The person's opponent: the agent ``--opponent`` names (default ``scripted``), or, when
+    ``--policy`` or ``--high`` are given instead, their levels as one hierarchical agent (the
+    computer of earlier versions)."""
+    from rallysim.eval.agents import Hierarchical, agent
+
+    if args.opponent is None and (args.policy is not None or args.high is not None):
+        low, high = _policies(args)
+        high_level, low_level = _rally_policies("simple", low, high, args.seed)
+        return Hierarchical(high_level, low_level, f"{Path(high).name} goals")
+    return agent(args.opponent or DEFAULT_OPPONENT, "simple", args.seed)
 
 
 def _require_train_extra() -> None:
@@ -645,7 +762,17 @@ def build_parser() -> argparse.ArgumentParser:
                              "(default: random); humanlike: centre, random, pretrained (the "
                              "default) or a path prefix")
     render.add_argument("--mode", choices=("cooperative", "competitive"), default="cooperative")
-    render.add_argument("--episodes", type=_positive, default=2)
+    render.add_argument("--players", nargs="+", metavar="NAME",
+                        help="with --mode competitive: a game of agent A (player 0, left in "
+                             "the side view) against agent B: random, scripted, hrl, mono, "
+                             "simple_compete or an exported policy's path prefix")
+    render.add_argument("--episodes", type=_positive, default=None,
+                        help="episodes, rallies or --players games (default 2; --players: 1)")
+    limit = render.add_mutually_exclusive_group()
+    limit.add_argument("--decisions", type=_integer_at_least(1, MATCH_DECISIONS_MAX),
+                       help="--players: stop each game after this many decisions (default 600)")
+    limit.add_argument("--seconds", type=_seconds,
+                       help="--players: stop each game after this much game time (default 60)")
     render.add_argument("--camera", choices=("side", "three_quarter", "three_quarter_close"),
                         default=None, help="default: side; humanlike: three_quarter_close")
     render.add_argument("--size", type=_size, default=(640, 360), help="WIDTHxHEIGHT")
@@ -661,10 +788,19 @@ def build_parser() -> argparse.ArgumentParser:
                   "low level swings)")
     play.add_argument("--human", choices=("none", "0", "1"), default="0")
     play.add_argument("--policy", default=None,
-                      help="the low level (default: scripted; humanlike: pretrained)")
+                      help="the low level (default: scripted; humanlike: pretrained); in "
+                           "competitive SIMPLE play, with --high, the opponent's instead of "
+                           "--opponent")
     play.add_argument("--high", default=None,
-                      help="the computer's goals (default: random; humanlike: pretrained)")
+                      help="the computer's goals (default: random; humanlike: pretrained); in "
+                           "competitive SIMPLE play, with --policy, the opponent's instead of "
+                           "--opponent")
     play.add_argument("--mode", choices=("cooperative", "competitive"), default="competitive")
+    play.add_argument("--opponent", metavar="NAME",
+                      help="competitive SIMPLE play: the agent you play against: scripted (the "
+                           "default until the champion ships), random, hrl, mono, "
+                           "simple_compete (the intended opponent) or an exported policy's "
+                           "path prefix")
     play.add_argument("--seconds", type=_seconds, default=None,
                       help="close the window after this many seconds (default: when you close it)")
     _common(play)

@@ -85,6 +85,10 @@ def agent(name: str, player: str | PlayerSpec = "simple", seed: int = 0,
     if name == "mono":
         return Direct(resolve("pretrained", "mono", p), name)
     prefix = PRETRAINED / f"{p.name}_compete_high" if name == f"{p.name}_compete" else Path(name)
+    if name == f"{p.name}_compete" and not prefix.with_suffix(".json").is_file():
+        # listed among the valid names, so "unknown" would mislead: it is not shipped yet
+        raise ValueError(f"the competitive champion {name!r} is not shipped yet (no "
+                         f"policies/pretrained/{prefix.name}.json); try 'scripted' or 'hrl'")
     if not prefix.with_suffix(".json").is_file():
         valid = ", ".join(map(repr, AGENT_NAMES))
         raise ValueError(f"unknown competitive player {name!r}; valid: {valid}, or the path "

@@ -105,6 +105,27 @@ class KeyboardGoals:
 Keyboard = KeyboardPlayer | KeyboardGoals
 
 
+class KeyboardAgent:
+    """A person at the keyboard as a competitive agent (the ``Agent`` protocol of
+    ``rallysim.eval.agents``): a SIMPLE player whose action every decision is the keys'
+    (``KeyboardPlayer.action``), so ``rallysim.eval.competitive.Match`` plays a person against
+    any agent as it plays two agents. One person plays one game."""
+
+    def __init__(self, keyboard: KeyboardPlayer | None = None, name: str = "you") -> None:
+        self.keyboard = KeyboardPlayer() if keyboard is None else keyboard
+        self.name = name
+
+    def start(self, n: int) -> None:
+        if n != 1:
+            raise ValueError(f"a person at the keyboard plays one game, not {n}")
+
+    def act(self, obs: np.ndarray, started: np.ndarray, rows: np.ndarray) -> np.ndarray:
+        if not len(rows):  # no live game: no decision, a swing keeps its decisions
+            return np.zeros((0, 3))
+        # one action per decision: a swing counts its decisions down in action()
+        return self.keyboard.action()[None, :].repeat(len(rows), axis=0)
+
+
 def keyboard_for(player: str) -> Keyboard:
     """The keyboard player of a player kind (``"simple"`` or ``"humanlike"``)."""
     if player == "simple":

@@ -4,7 +4,11 @@ HUMAN-LIKE players:
 - ``record_low_level``: episodes of the low-level task (``SimpleReturnEnv`` or
   ``HumanLikeReturnEnv``) with the goal's marker and a HUD of the episode and its reward;
 - ``record_rally``: rallies played by the turn loop (``rallysim.envs.turn_loop``) with each
-  player's held goal and a HUD of the rally length and score.
+  player's held goal and a HUD of the rally length and score;
+- ``record_match``: competitive games between two agents (``rallysim.eval.agents``: a
+  Monolithic player can meet a hierarchical one) played by ``rallysim.eval.competitive.Match``,
+  with the hierarchical players' held goals and a HUD of both names with their score, the
+  rally length and who won the last point.
 """
 
 from __future__ import annotations
@@ -18,10 +22,13 @@ import numpy as np
 from rallysim.core.game import PHYSICS_DT, PHYSICS_STEPS_PER_DECISION
 from rallysim.envs.rally_task import RallyConfig, RallyTask
 from rallysim.envs.turn_loop import TurnLoop, rally_core
+from rallysim.eval.agents import Agent
+from rallysim.eval.competitive import Match
 from rallysim.policies.registry import resolve
 from rallysim.policies.types import HighLevel, LowLevel, Policy
 from rallysim.render.markers import goal_markers, target_markers
 from rallysim.render.scene import SceneRenderer
+from rallysim.render.scoreboard import Scoreboard, held_goals, player_names
 
 POLICIES = ("scripted", "random")
 DECISION_SECONDS = PHYSICS_DT * PHYSICS_STEPS_PER_DECISION  # 0.1 s
@@ -200,5 +207,69 @@ def _rally(loop: TurnLoop, view: SceneRenderer, choose: HighLevel, title: str,
         _, term, trunc, _ = loop.step(loop.low_level_actions(obs))
         if term[0] or trunc[0]:
             frames.append(frame(f"{title}   over after {decisions + 1} decisions"))
+            break
+    return frames
+
+
+# -- competitive games between two agents -------------------------------------------------------
+MATCH_DECISIONS = 600  # a minute of game time: 415 MB of 640x360 frames, held in memory
+
+
+def record_match(a: Agent, b: Agent, n_games: int = 1, seed: int = 0,
+                 config: RallyConfig | None = None, width: int = 640, height: int = 360,
+                 camera: str | None = None, max_decisions: int = MATCH_DECISIONS,
+                 renderer: SceneRenderer | None = None) -> list[np.ndarray]:
+    """Play ``n_games`` competitive games of agent ``a`` against agent ``b`` (SIMPLE players,
+    ``config`` default ``RallyConfig(mode="competitive")``) and render every decision.
+
+    Game k is game 0 of ``Match(a, b, 1, seed + k, config)``: ``a`` plays player 0, on the left
+    of the side camera's picture, and it replays as that match does. A game stops at its end or
+    after ``max_decisions`` decisions. Each game gives a frame before each decision and one
+    after its last, so ``decisions + 1`` frames. The HUD names both players with their score
+    (player 0 first), the rally length and who won the last point; a hierarchical player's held
+    goal is its red marker. ``camera`` None is the side view. Pass a ``renderer`` (two players)
+    to reuse its OpenGL context; its size and camera then win over the arguments."""
+    if not isinstance(n_games, int) or n_games < 1:
+        raise ValueError(f"n_games must be a positive integer, got {n_games!r}")
+    if not isinstance(max_decisions, int) or max_decisions < 1:
+        raise ValueError(f"max_decisions must be a positive integer, got {max_decisions!r}")
+    own = renderer is None
+    view = SceneRenderer(2, width, height, camera) if renderer is None else renderer
+    frames: list[np.ndarray] = []
+    try:
+        for k in range(n_games):
+            match = Match(a, b, 1, seed + k, config)
+            view.reset_trail()
+            frames += _game(match, view, f"game {k + 1}/{n_games}", max_decisions)
+    finally:
+        if own:
+            view.close()
+    return frames
+
+
+def _game(match: Match, view: SceneRenderer, title: str, max_decisions: int,
+          ) -> list[np.ndarray]:
+    task = match.task
+    board = Scoreboard(player_names(match.a.name, match.b.name, match.side[0]))
+    frames = []
+
+    def frame(first_line: str) -> np.ndarray:
+        # a goal chosen at a turn's start shows from the frame after that decision: agents
+        # choose inside Match.step, where the turn loop of record_rally chooses before its
+        # frame
+        hud = board.text(first_line, int(task.game.hits[0]))
+        return view.render(task.game, 0, hud_text=hud, target_depth=held_goals(match))
+
+    for decisions in range(max_decisions + 1):
+        frames.append(frame(f"{title}   t = {decisions * DECISION_SECONDS:.1f} s"))
+        if decisions == max_decisions:
+            break
+        ended, info = match.step()
+        board.update(info, bool(ended[0]))
+        if info["rally_over"][0]:
+            view.reset_trail()  # the next rally's shuttle, not a line from the last one
+        if ended[0]:
+            frames.append(frame(f"{title}   over after {decisions + 1} decisions, "
+                                f"game to {board.result()}"))
             break
     return frames
