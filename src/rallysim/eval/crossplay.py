@@ -38,8 +38,10 @@ CELL_IN, LEFT_IN, RIGHT_IN, BOTTOM_IN, TOP_IN, DPI = 1.3, 1.5, 1.1, 1.3, 0.6, 10
 
 def crossplay(names: list[str], games: int, seed: int = 0,
               max_decisions: int = DEFAULT_MAX_DECISIONS, shuttle: str = "paper",
-              say: Say | None = None) -> dict[str, Any]:
-    """Every pair of ``names`` plays ``games`` games (see the module)."""
+              say: Say | None = None, low: str = "pretrained") -> dict[str, Any]:
+    """Every pair of ``names`` plays ``games`` games (see the module); hierarchical players
+    swing with the low level ``low``; ``say`` gets a progress line before and after each
+    pair."""
     names = list(names)
     if len(names) < 2:
         raise ValueError(f"cross-play needs at least two players, got {len(names)}")
@@ -49,7 +51,7 @@ def crossplay(names: list[str], games: int, seed: int = 0,
     if not isinstance(games, int) or games < 1:
         raise ValueError(f"games must be a positive integer, got {games!r}")
     for name in names:
-        agent(name)  # a bad name fails here, before any game
+        agent(name, low=low)  # a bad name fails here, before any game
     n = len(names)
     points: list[list[Cell]] = [[None] * n for _ in range(n)]
     wins: list[list[Cell]] = [[None] * n for _ in range(n)]
@@ -61,21 +63,21 @@ def crossplay(names: list[str], games: int, seed: int = 0,
         if say:
             say(f"[crossplay] pair {k}/{len(todo)}: {names[i]} vs {names[j]}, {games} games ...")
         # fresh agents per pair: each pair's games depend on the seed alone, not on the order
-        played = play_games(agent(names[i]), agent(names[j]), games, seed, shuttle,
-                            max_decisions)
+        played = play_games(agent(names[i], low=low), agent(names[j], low=low), games, seed,
+                            shuttle, max_decisions)
         s = summarise(played, seed=seed)
         ratings.update(names[i], names[j], played)
         points[i][j], points[j][i] = _cell(s["point_win_rate"]), _mirror(s["point_win_rate"])
         wins[i][j], wins[j][i] = _cell(s["game_win_rate"]), _mirror(s["game_win_rate"])
         rally[i][j] = rally[j][i] = _cell(s["mean_rally"])
-        pairs.append({"a": names[i], "b": names[j], **_jsonable(s)})
+        pairs.append({"a": names[i], "b": names[j], **jsonable(s)})
         if say:
             p = s["point_win_rate"]
             say(f"[crossplay] pair {k}/{len(todo)}: {names[i]} won {p['value']:.2f} of "
                 f"{s['points']} points, {s['games_finished']}/{games} games finished, "
                 f"{time.perf_counter() - start:.0f} s")
     return {"players": names, "games": games, "seed": seed, "max_decisions": max_decisions,
-            "shuttle": shuttle, "point_win_rate": points, "game_win_rate": wins,
+            "shuttle": shuttle, "low": low, "point_win_rate": points, "game_win_rate": wins,
             "mean_rally": rally, "pairs": pairs, "ratings": ratings.to_json(),
             "table": ratings.table(names)}
 
@@ -91,11 +93,13 @@ def _mirror(e: dict[str, float]) -> Cell:
     return _cell({"value": 1.0 - e["value"], "low": 1.0 - e["high"], "high": 1.0 - e["low"]})
 
 
-def _jsonable(value: Any) -> Any:
+def jsonable(value: Any) -> Any:
+    """``value`` with every non-finite float (an undefined rate: NaN) as None: JSON has no
+    NaN, and ``json.dumps`` would write one that strict readers refuse."""
     if isinstance(value, float):
         return value if math.isfinite(value) else None
     if isinstance(value, dict):
-        return {k: _jsonable(v) for k, v in value.items()}
+        return {k: jsonable(v) for k, v in value.items()}
     return value
 
 
