@@ -24,9 +24,10 @@ from itertools import combinations
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from rallysim.eval.agents import agent
 from rallysim.eval.competitive import DEFAULT_MAX_DECISIONS, play_games, summarise
-from rallysim.eval.ratings import Ratings
 
 Say = Callable[[str], None]
 Cell = dict[str, float] | None
@@ -50,6 +51,10 @@ def crossplay(names: list[str], games: int, seed: int = 0,
         raise ValueError(f"each player may appear once in cross-play; repeated: {repeated}")
     if not isinstance(games, int) or games < 1:
         raise ValueError(f"games must be a positive integer, got {games!r}")
+    # here, not at the top: openskill is in the train extra, and two players' games (which
+    # import jsonable from here) must not need it
+    from rallysim.eval.ratings import Ratings
+
     for name in names:
         agent(name, low=low)  # a bad name fails here, before any game
     n = len(names)
@@ -112,44 +117,38 @@ def heatmap_size(n_players: int) -> tuple[int, int]:
 def heatmap(result: dict[str, Any], path: str | Path) -> Path:
     """Draw ``crossplay``'s point-win matrix (row vs column) as a PNG at ``path``; each cell
     reads "0.73\\n[0.68, 0.78]". Needs matplotlib (the ``train`` extra)."""
-    import matplotlib
-
-    matplotlib.use("Agg")  # files only: no display, whatever the environment says
-    import matplotlib.pyplot as plt
-    import numpy as np
+    # a bare Figure (Agg canvas), not pyplot: no global backend switched, no figure left open
+    from matplotlib.figure import Figure
 
     names, matrix = result["players"], result["point_win_rate"]
     n = len(names)
     values = np.array([[np.nan if c is None else c["value"] for c in row] for row in matrix])
     width, height = heatmap_size(n)
     w_in, h_in, side = width / DPI, height / DPI, CELL_IN * n
-    fig = plt.figure(figsize=(w_in, h_in), dpi=DPI)
-    try:
-        # fixed axes in inches, no tight layout or bbox="tight": those would make the pixel
-        # size depend on the names' lengths
-        ax = fig.add_axes((LEFT_IN / w_in, BOTTOM_IN / h_in, side / w_in, side / h_in))
-        bar = fig.add_axes(((LEFT_IN + side + 0.2) / w_in, BOTTOM_IN / h_in, 0.2 / w_in,
-                            side / h_in))
-        image = ax.imshow(values, cmap="RdBu", vmin=0.0, vmax=1.0)
-        labels = [_label(name) for name in names]
-        ax.set_xticks(range(n), labels, rotation=30, ha="right")
-        ax.set_yticks(range(n), labels)
-        ax.set_xlabel("column player")
-        ax.set_ylabel("row player")
-        ax.set_title(f"point-win rate of row vs column ({result['games']} games per pair)",
-                     fontsize=9)
-        for i in range(n):
-            for j in range(n):
-                cell = matrix[i][j]
-                text = "–" if cell is None else _cell_text(cell)
-                dark = cell is not None and abs(cell["value"] - 0.5) > 0.3
-                ax.text(j, i, text, ha="center", va="center", fontsize=8,
-                        color="white" if dark else "black")
-        fig.colorbar(image, cax=bar)
-        path = Path(path)
-        fig.savefig(path, dpi=DPI, format="png")
-    finally:
-        plt.close(fig)
+    fig = Figure(figsize=(w_in, h_in), dpi=DPI)
+    # fixed axes in inches, no tight layout or bbox="tight": those would make the pixel size
+    # depend on the names' lengths
+    ax = fig.add_axes((LEFT_IN / w_in, BOTTOM_IN / h_in, side / w_in, side / h_in))
+    bar = fig.add_axes(((LEFT_IN + side + 0.2) / w_in, BOTTOM_IN / h_in, 0.2 / w_in,
+                        side / h_in))
+    image = ax.imshow(values, cmap="RdBu", vmin=0.0, vmax=1.0)
+    labels = [_label(name) for name in names]
+    ax.set_xticks(range(n), labels, rotation=30, ha="right")
+    ax.set_yticks(range(n), labels)
+    ax.set_xlabel("column player")
+    ax.set_ylabel("row player")
+    ax.set_title(f"point-win rate of row vs column ({result['games']} games per pair)",
+                 fontsize=9)
+    for i in range(n):
+        for j in range(n):
+            cell = matrix[i][j]
+            text = "–" if cell is None else _cell_text(cell)
+            dark = cell is not None and abs(cell["value"] - 0.5) > 0.3
+            ax.text(j, i, text, ha="center", va="center", fontsize=8,
+                    color="white" if dark else "black")
+    fig.colorbar(image, cax=bar)
+    path = Path(path)
+    fig.savefig(path, dpi=DPI, format="png")
     return path
 
 
