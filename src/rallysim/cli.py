@@ -606,12 +606,138 @@ def _evaluate_simple(args: argparse.Namespace) -> dict:
 _EVALUATIONS = {"simple": _evaluate_simple, "humanlike": _evaluate_humanlike}
 
 
+# evaluate --mode competitive: the defaults of its options (None on the parser, so that an
+# option given in cooperative mode is seen and refused)
+COMPETITIVE_GAMES = 16
+COMPETITIVE_MAX_DECISIONS = 200_000  # rallysim.eval.competitive.DEFAULT_MAX_DECISIONS
+# cooperative-only options of evaluate and their defaults: given with --mode competitive, they
+# would be silently ignored, so they are refused
+_COOPERATIVE_ONLY = {"--high": ("high", None), "--mono": ("mono", "pretrained"),
+                     "--rallies": ("rallies", 100), "--seeds": ("seeds", 3),
+                     "--cap": ("cap", 50), "--episodes": ("episodes", 500),
+                     "--pretrained": ("pretrained", False)}
+_COMPETITIVE_ONLY = {"--players": "players", "--games": "games", "--seed": "seed",
+                     "--max-decisions": "max_decisions", "--figure": "figure"}
+
+
+def _check_competitive(args: argparse.Namespace) -> None:
+    """Refuse (UsageError) a competitive evaluation that cannot run, before any game."""
+    if args.player != "simple":
+        raise UsageError("--mode competitive plays SIMPLE players only (leave out --player)")
+    for option, (dest, default) in _COOPERATIVE_ONLY.items():
+        if getattr(args, dest) != default:
+            raise UsageError(f"{option} applies to --mode cooperative only")
+    if not args.players:
+        raise UsageError("--mode competitive needs --players A B [C ...]")
+    if len(args.players) < 2:
+        raise UsageError(f"--players needs at least two players, got one: {args.players[0]!r}")
+    repeated = sorted({n for n in args.players if args.players.count(n) > 1})
+    if repeated:
+        raise UsageError(f"--players names each player once; repeated: {', '.join(repeated)}")
+    if args.figure is not None:
+        if len(args.players) < 3:
+            raise UsageError("--figure draws the cross-play matrix: give 3 or more --players")
+        if Path(args.figure).suffix.lower() != ".png":
+            raise UsageError(f"--figure writes a PNG: give a .png path, got {args.figure!r}")
+    import importlib.util
+
+    needed = ["openskill"] if len(args.players) >= 3 else []
+    needed += ["matplotlib"] if args.figure is not None else []
+    missing = [m for m in needed if importlib.util.find_spec(m) is None]
+    if missing:
+        raise UsageError(f"cross-play of 3 or more players needs {', '.join(missing)}: "
+                         "pip install 'rallysim[train]'")
+    from rallysim.eval.agents import agent
+
+    for name in args.players:
+        agent(name, low=args.low)  # an unknown name: a ValueError listing the valid ones
+
+
+def _estimate(e: dict, digits: int = 2) -> str:
+    if e["value"] is None or e["value"] != e["value"]:  # None (JSON) or NaN
+        return "n/a"
+    return f"{e['value']:.{digits}f} [{e['low']:.{digits}f}, {e['high']:.{digits}f}]"
+
+
+def _evaluate_two(args: argparse.Namespace) -> dict:
+    """Games of the first player against the second; their summary and the settings."""
+    from rallysim.eval.agents import agent
+    from rallysim.eval.competitive import play_games, summarise
+    from rallysim.eval.crossplay import jsonable
+
+    a, b = args.players
+    games = args.games or COMPETITIVE_GAMES
+    seed = args.seed or 0
+    max_decisions = args.max_decisions or COMPETITIVE_MAX_DECISIONS
+    print(f"[evaluate] {a} vs {b}: {games} games ...", file=sys.stderr, flush=True)
+    start = time.perf_counter()
+    played = play_games(agent(a, low=args.low), agent(b, low=args.low), games, seed,
+                        args.shuttle, max_decisions)
+    s = summarise(played, seed=seed)
+    print(f"[evaluate] {a} vs {b}: {games} games in {time.perf_counter() - start:.0f} s",
+          file=sys.stderr, flush=True)
+    print(f"{a} vs {b}: {games} games (seed {seed}), {s['games_finished']} finished, "
+          f"{s['points']} points, {s['lets']} lets")
+    rows = [(f"point-win rate of {a}", _estimate(s["point_win_rate"])),
+            (f"game-win rate of {a}", f"{_estimate(s['game_win_rate'])}  (finished games)"),
+            ("mean rally", f"{_estimate(s['mean_rally'])}  hits per point")]
+    width = max(len(label) for label, _ in rows)
+    for label, value in rows:
+        print(f"  {label:{width}s}  {value}")
+    settings = {"games": games, "seed": seed, "max_decisions": max_decisions,
+                "shuttle": args.shuttle, "low": args.low}
+    return {"players": [a, b], **jsonable(s), "settings": settings}
+
+
+def _evaluate_crossplay(args: argparse.Namespace) -> dict:
+    """Every pair of the players: the point-win matrix, OpenSkill ratings, the heat map."""
+    from rallysim.eval.crossplay import crossplay, heatmap
+
+    def say(line: str) -> None:
+        print(line, file=sys.stderr, flush=True)
+
+    result = crossplay(args.players, args.games or COMPETITIVE_GAMES, args.seed or 0,
+                       args.max_decisions or COMPETITIVE_MAX_DECISIONS, args.shuttle,
+                       say=say, low=args.low)
+    names = result["players"]
+    width = max(17, *(len(n) for n in names))
+    print(f"point-win rate of row vs column ({result['games']} games per pair, seed "
+          f"{result['seed']})")
+    print(" " * width + "  " + "  ".join(f"{n:>{width}s}" for n in names))
+    for name, row in zip(names, result["point_win_rate"], strict=True):
+        cells = ("-" if c is None else _estimate(c) for c in row)
+        print(f"{name:{width}s}  " + "  ".join(f"{c:>{width}s}" for c in cells))
+    print("OpenSkill ratings (Plackett-Luce), best ordinal (mu - 3 sigma) first")
+    for r in result["table"]:
+        print(f"  {r['name']:{width}s}  mu {r['mu']:6.2f}  sigma {r['sigma']:5.2f}  "
+              f"ordinal {r['ordinal']:6.2f}")
+    if args.figure:
+        Path(args.figure).parent.mkdir(parents=True, exist_ok=True)
+        print(f"heat map written to {heatmap(result, args.figure)}")
+    return result
+
+
+def _evaluate_competitive(args: argparse.Namespace) -> dict:
+    """``evaluate --mode competitive``: two players' games, or the cross-play of 3 or more."""
+    _check_competitive(args)
+    if len(args.players) == 2:
+        return {"competitive": _evaluate_two(args)}
+    return {"crossplay": _evaluate_crossplay(args)}
+
+
 def _evaluate(args: argparse.Namespace) -> int:
     """Evaluate HRL, Random High-level and Monolithic (pretrained or given policies), or a
-    HUMAN-LIKE low level and its 3-D rally."""
+    HUMAN-LIKE low level and its 3-D rally; or, with ``--mode competitive``, players in games
+    against each other."""
     import json
 
-    results = _EVALUATIONS[args.player](args)
+    if args.mode == "competitive":
+        results = _evaluate_competitive(args)
+    else:
+        for option, dest in _COMPETITIVE_ONLY.items():
+            if getattr(args, dest) is not None:
+                raise UsageError(f"{option} needs --mode competitive")
+        results = _EVALUATIONS[args.player](args)
     if args.json:
         Path(args.json).parent.mkdir(parents=True, exist_ok=True)
         Path(args.json).write_text(json.dumps(results, indent=1))
@@ -748,6 +874,21 @@ def build_parser() -> argparse.ArgumentParser:
                          "to 100000)")
     ev.add_argument("--json", type=_out_file, help="write every number here")
     ev.add_argument("--shuttle", default="paper", choices=tuple(SHUTTLE_MODELS))
+    ev.add_argument("--mode", choices=("cooperative", "competitive"), default="cooperative",
+                    help="cooperative (default): rally statistics as above; competitive: "
+                         "--players in games against each other")
+    ev.add_argument("--players", nargs="+", metavar="NAME",
+                    help="competitive: random, scripted, hrl, mono, simple_compete or a policy "
+                         "path prefix; two: the first's point-win and game-win rates; three "
+                         "or more: the cross-play matrix and OpenSkill ratings")
+    ev.add_argument("--games", type=_positive,
+                    help=f"competitive: games per pair (default {COMPETITIVE_GAMES})")
+    ev.add_argument("--seed", type=_seed, help="competitive: the games' seed (default 0)")
+    ev.add_argument("--max-decisions", dest="max_decisions", type=_positive,
+                    help="competitive: a game still going after this many decisions stops "
+                         f"and counts by its points (default {COMPETITIVE_MAX_DECISIONS})")
+    ev.add_argument("--figure", type=_out_file,
+                    help="competitive, 3 or more players: the cross-play heat map (PNG)")
     ev.set_defaults(run=_evaluate)
 
     render = sub.add_parser("render", help="write an MP4, a GIF and stills of episodes")

@@ -86,9 +86,9 @@ def agent(name: str, player: str | PlayerSpec = "simple", seed: int = 0,
         return Direct(resolve("pretrained", "mono", p), name)
     prefix = PRETRAINED / f"{p.name}_compete_high" if name == f"{p.name}_compete" else Path(name)
     if name == f"{p.name}_compete" and not prefix.with_suffix(".json").is_file():
-        # listed among the valid names, so "unknown" would mislead: it is not shipped yet
-        raise ValueError(f"the competitive champion {name!r} is not shipped yet (no "
-                         f"policies/pretrained/{prefix.name}.json); try 'scripted' or 'hrl'")
+        # a valid name whose policy is missing: "unknown" (listing the name as valid) misled
+        raise ValueError(f"{name!r} is not shipped in this installation ({prefix}.json is "
+                         "missing); train one and pass its path prefix instead")
     if not prefix.with_suffix(".json").is_file():
         valid = ", ".join(map(repr, AGENT_NAMES))
         raise ValueError(f"unknown competitive player {name!r}; valid: {valid}, or the path "

@@ -1,0 +1,163 @@
+"""Cross-play: every pair of a list of competitive players, a matrix of who beats whom.
+
+``crossplay(names, games, seed, max_decisions)`` plays each unordered pair once with
+``play_games`` (which already alternates the sides, so a pair needs no second match with the
+roles swapped) and returns a JSON-able dict:
+
+- ``point_win_rate[i][j]``: player i's share of the points against player j, ``{value, low,
+  high}`` (95 % bootstrap over games); the mirror cell ``[j][i]`` is ``1 - value`` with the
+  interval mirrored, the diagonal is ``None``;
+- ``game_win_rate[i][j]``: likewise over finished games (``None`` where no game finished);
+- ``mean_rally[i][j]``: hits per point, the same both ways;
+- ``pairs``: each pair's full ``summarise``; ``ratings``: OpenSkill ratings from all those
+  games (``Ratings.to_json``), ``table``: the players best ordinal first.
+
+``heatmap(result, path)`` draws the point-win matrix as a PNG (needs matplotlib).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from itertools import combinations
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from rallysim.eval.agents import agent
+from rallysim.eval.competitive import DEFAULT_MAX_DECISIONS, play_games, summarise
+
+Say = Callable[[str], None]
+Cell = dict[str, float] | None
+
+# the heat map's layout in inches (a cell; the margins for names, title and colour bar) at DPI:
+# the PNG's pixel size follows from the number of players alone (heatmap_size)
+CELL_IN, LEFT_IN, RIGHT_IN, BOTTOM_IN, TOP_IN, DPI = 1.3, 1.5, 1.1, 1.3, 0.6, 100
+
+
+def crossplay(names: list[str], games: int, seed: int = 0,
+              max_decisions: int = DEFAULT_MAX_DECISIONS, shuttle: str = "paper",
+              say: Say | None = None, low: str = "pretrained") -> dict[str, Any]:
+    """Every pair of ``names`` plays ``games`` games (see the module); hierarchical players
+    swing with the low level ``low``; ``say`` gets a progress line before and after each
+    pair."""
+    names = list(names)
+    if len(names) < 2:
+        raise ValueError(f"cross-play needs at least two players, got {len(names)}")
+    repeated = sorted({n for n in names if names.count(n) > 1})
+    if repeated:
+        raise ValueError(f"each player may appear once in cross-play; repeated: {repeated}")
+    if not isinstance(games, int) or games < 1:
+        raise ValueError(f"games must be a positive integer, got {games!r}")
+    # here, not at the top: openskill is in the train extra, and two players' games (which
+    # import jsonable from here) must not need it
+    from rallysim.eval.ratings import Ratings
+
+    for name in names:
+        agent(name, low=low)  # a bad name fails here, before any game
+    n = len(names)
+    points: list[list[Cell]] = [[None] * n for _ in range(n)]
+    wins: list[list[Cell]] = [[None] * n for _ in range(n)]
+    rally: list[list[Cell]] = [[None] * n for _ in range(n)]
+    pairs, ratings = [], Ratings()
+    todo = list(combinations(range(n), 2))
+    for k, (i, j) in enumerate(todo, 1):
+        start = time.perf_counter()
+        if say:
+            say(f"[crossplay] pair {k}/{len(todo)}: {names[i]} vs {names[j]}, {games} games ...")
+        # fresh agents per pair: each pair's games depend on the seed alone, not on the order
+        played = play_games(agent(names[i], low=low), agent(names[j], low=low), games, seed,
+                            shuttle, max_decisions)
+        s = summarise(played, seed=seed)
+        ratings.update(names[i], names[j], played)
+        points[i][j], points[j][i] = _cell(s["point_win_rate"]), _mirror(s["point_win_rate"])
+        wins[i][j], wins[j][i] = _cell(s["game_win_rate"]), _mirror(s["game_win_rate"])
+        rally[i][j] = rally[j][i] = _cell(s["mean_rally"])
+        pairs.append({"a": names[i], "b": names[j], **jsonable(s)})
+        if say:
+            p = s["point_win_rate"]
+            say(f"[crossplay] pair {k}/{len(todo)}: {names[i]} won {p['value']:.2f} of "
+                f"{s['points']} points, {s['games_finished']}/{games} games finished, "
+                f"{time.perf_counter() - start:.0f} s")
+    return {"players": names, "games": games, "seed": seed, "max_decisions": max_decisions,
+            "shuttle": shuttle, "low": low, "point_win_rate": points, "game_win_rate": wins,
+            "mean_rally": rally, "pairs": pairs, "ratings": ratings.to_json(),
+            "table": ratings.table(names)}
+
+
+def _cell(e: dict[str, float]) -> Cell:
+    """An estimate as a JSON cell: None when undefined (NaN is no JSON)."""
+    return None if not math.isfinite(e["value"]) else {
+        k: (v if math.isfinite(v) else None) for k, v in e.items()}
+
+
+def _mirror(e: dict[str, float]) -> Cell:
+    """The other side's share: 1 - value, and the interval mirrored (low <-> high)."""
+    return _cell({"value": 1.0 - e["value"], "low": 1.0 - e["high"], "high": 1.0 - e["low"]})
+
+
+def jsonable(value: Any) -> Any:
+    """``value`` with every non-finite float (an undefined rate: NaN) as None: JSON has no
+    NaN, and ``json.dumps`` would write one that strict readers refuse."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: jsonable(v) for k, v in value.items()}
+    return value
+
+
+def heatmap_size(n_players: int) -> tuple[int, int]:
+    """The heat map's (width, height) in pixels for ``n_players``."""
+    side = CELL_IN * n_players
+    return (round((LEFT_IN + side + RIGHT_IN) * DPI), round((BOTTOM_IN + side + TOP_IN) * DPI))
+
+
+def heatmap(result: dict[str, Any], path: str | Path) -> Path:
+    """Draw ``crossplay``'s point-win matrix (row vs column) as a PNG at ``path``; each cell
+    reads "0.73\\n[0.68, 0.78]". Needs matplotlib (the ``train`` extra)."""
+    # a bare Figure (Agg canvas), not pyplot: no global backend switched, no figure left open
+    from matplotlib.figure import Figure
+
+    names, matrix = result["players"], result["point_win_rate"]
+    n = len(names)
+    values = np.array([[np.nan if c is None else c["value"] for c in row] for row in matrix])
+    width, height = heatmap_size(n)
+    w_in, h_in, side = width / DPI, height / DPI, CELL_IN * n
+    fig = Figure(figsize=(w_in, h_in), dpi=DPI)
+    # fixed axes in inches, no tight layout or bbox="tight": those would make the pixel size
+    # depend on the names' lengths
+    ax = fig.add_axes((LEFT_IN / w_in, BOTTOM_IN / h_in, side / w_in, side / h_in))
+    bar = fig.add_axes(((LEFT_IN + side + 0.2) / w_in, BOTTOM_IN / h_in, 0.2 / w_in,
+                        side / h_in))
+    image = ax.imshow(values, cmap="RdBu", vmin=0.0, vmax=1.0)
+    labels = [_label(name) for name in names]
+    ax.set_xticks(range(n), labels, rotation=30, ha="right")
+    ax.set_yticks(range(n), labels)
+    ax.set_xlabel("column player")
+    ax.set_ylabel("row player")
+    ax.set_title(f"point-win rate of row vs column ({result['games']} games per pair)",
+                 fontsize=9)
+    for i in range(n):
+        for j in range(n):
+            cell = matrix[i][j]
+            text = "–" if cell is None else _cell_text(cell)
+            dark = cell is not None and abs(cell["value"] - 0.5) > 0.3
+            ax.text(j, i, text, ha="center", va="center", fontsize=8,
+                    color="white" if dark else "black")
+    fig.colorbar(image, cax=bar)
+    path = Path(path)
+    fig.savefig(path, dpi=DPI, format="png")
+    return path
+
+
+def _cell_text(cell: dict[str, float]) -> str:
+    low, high = cell["low"], cell["high"]
+    interval = "" if low is None or high is None else f"\n[{low:.2f}, {high:.2f}]"
+    return f"{cell['value']:.2f}{interval}"
+
+
+def _label(name: str) -> str:
+    """A player's name on the axes: an exported policy's file name, not its whole path."""
+    return Path(name).name if "/" in name else name
