@@ -87,7 +87,7 @@ def agent(name: str, player: str | PlayerSpec = "simple", seed: int = 0,
     prefix = PRETRAINED / f"{p.name}_compete_high" if name == f"{p.name}_compete" else Path(name)
     if name == f"{p.name}_compete" and not prefix.with_suffix(".json").is_file():
         # a valid name whose policy is missing: "unknown" (listing the name as valid) misled
-        raise ValueError(f"{name!r} is not shipped in this installation ({prefix}.json is "
+        raise ValueError(f"{name!r} is not shipped yet in this installation ({prefix}.json is "
                          "missing); train one and pass its path prefix instead")
     if not prefix.with_suffix(".json").is_file():
         valid = ", ".join(map(repr, AGENT_NAMES))

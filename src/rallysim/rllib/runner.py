@@ -153,6 +153,9 @@ def train_stage_rllib(config: TrainConfig, out_dir: str | Path, address: str | N
 
     ``address``: a running Ray cluster (``"auto"`` or ``HOST:PORT``; every node needs RallySim
     installed); ``None`` starts a local Ray for this run."""
+    if config.stage not in RLLIB_PLAYERS:  # the compete stage's league runs on SB3's loop
+        raise ValueError(f"the RLlib backend does not train the {config.stage} stage; train "
+                         "it with --backend sb3")
     if config.player not in RLLIB_PLAYERS[config.stage]:
         raise ValueError(f"the RLlib backend does not train the {PLAYERS[config.player].label} "
                          f"player's {config.stage} stage; train it with --backend sb3")

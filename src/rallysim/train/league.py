@@ -148,7 +148,7 @@ class League:
             games = play_games(me, self._agent(other), s.rating_games,
                                seed=self.config.eval.seed + i, shuttle=self.config.shuttle,
                                max_decisions=s.max_decisions)
-            ratings.update(name, other, games)
+            ratings.update(name, other, games, fixed=s.names(s.ladder))
             rates[other] = summarise(games, n_boot=200)["point_win_rate"]["value"]
         self.ratings = ratings.to_json()
         return {"rating": ratings.ordinal(name), "point_win_rate": rates}
