@@ -206,7 +206,8 @@ def test_render_players_writes_the_game(tmp_path, capsys):
     (["--players", "hrl", "mono"], "add --mode competitive"),
     (["--mode", "cooperative", "--players", "hrl", "mono"], "add --mode competitive"),
     (["--mode", "competitive", "--players", "hrl", "bogus"], "unknown competitive player 'bogus'"),
-    (["--mode", "competitive", "--players", "simple_compete", "hrl"], "not shipped yet"),
+    (["--mode", "competitive", "--players", "no/such/champion", "hrl"],
+     "unknown competitive player 'no/such/champion'"),
     (["--mode", "competitive", "--players", "hrl", "mono", "--env", "low"], "--env low"),
     (["--mode", "competitive", "--players", "hrl", "mono", "--player", "humanlike"], "SIMPLE"),
     (["--mode", "competitive", "--players", "hrl", "mono", "--high", "random"], "--high"),
@@ -372,7 +373,7 @@ def stand_in_play(monkeypatch):
 
 
 @pytest.mark.parametrize("argv, runner, opponent", [
-    ([], "play_match", "scripted"),  # the default opponent until the champion ships
+    ([], "play_match", "simple_compete"),  # the default opponent: the shipped champion
     (["--opponent", "hrl"], "play_match", "hrl"),
     (["--opponent", "mono", "--human", "1"], "play_match", "mono"),
     (["--high", "fixed:3"], "play_match", "fixed:3 goals"),  # the computer of --high/--policy
@@ -391,7 +392,7 @@ def test_play_command_picks_the_opponent(argv, runner, opponent, stand_in_play):
 
 @pytest.mark.parametrize("argv, words", [
     (["--opponent", "bogus"], "unknown competitive player 'bogus'"),
-    (["--opponent", "simple_compete"], "not shipped yet"),
+    (["--opponent", "no/such/champion"], "unknown competitive player 'no/such/champion'"),
     (["--opponent", "hrl", "--mode", "cooperative"], "--mode competitive"),
     (["--opponent", "hrl", "--player", "humanlike"], "HUMAN-LIKE"),
     (["--opponent", "hrl", "--human", "none"], "--human 0 or 1"),

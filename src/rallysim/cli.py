@@ -32,8 +32,8 @@ MAX_SIDE = 4096
 # render --players: a game's frames are held in memory too (an hour of 640x360 is 25 GB)
 MATCH_DECISIONS_MAX = 36_000
 DECISION_SECONDS = 0.1  # game time per decision (core.game's physics steps of a decision)
-# play --opponent: until the competitive champion (simple_compete) ships
-DEFAULT_OPPONENT = "scripted"
+# play --opponent: the shipped competitive champion
+DEFAULT_OPPONENT = "simple_compete"
 
 
 class UsageError(Exception):
@@ -474,7 +474,7 @@ def _require_ray_extra() -> None:
 
 
 def _train(args: argparse.Namespace) -> int:
-    """Train one stage (low, high, mono) with Stable-Baselines3 PPO (resumable) or, with
+    """Train one stage (low, high, mono, compete) with Stable-Baselines3 PPO (resumable) or, with
     ``--backend rllib``, with RLlib PPO on a Ray cluster."""
     import warnings
 
@@ -799,15 +799,17 @@ def build_parser() -> argparse.ArgumentParser:
     train = sub.add_parser("train", help="train a stage with PPO (resumes an interrupted run)",
                            epilog=settings_help(),
                            formatter_class=argparse.RawDescriptionHelpFormatter)
-    train.add_argument("stage", choices=stages)
+    train.add_argument("stage", choices=stages,
+                       help="low, high, mono: the paper's stages; compete: the competitive high "
+                            "level by self-play (docs/competitive.md)")
     train.add_argument("--config", type=_in_file,
                        help="a YAML file of settings over the stage's defaults")
     train.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",
                        help="settings over the config, e.g. ppo.n_envs=128 "
                             "ppo.net_arch=[64,64] eval.episodes=200 (all listed below)")
     train.add_argument("--budget", type=int,
-                       help="budget in the stage's unit: decisions (low), turns (high), "
-                            "player-decisions (mono)")
+                       help="budget in the stage's unit: decisions (low), turns (high, "
+                            "compete), player-decisions (mono)")
     train.add_argument("--decisions", type=int, dest="budget", action=_DeprecatedName,
                        new="--budget", help="deprecated name of --budget")
     train.add_argument("--seed", type=_seed)

@@ -147,7 +147,7 @@ class League:
         for i, other in enumerate(s.names(s.ladder)):
             games = play_games(me, self._agent(other), s.rating_games,
                                seed=self.config.eval.seed + i, shuttle=self.config.shuttle,
-                               max_decisions=s.max_decisions)
+                               max_decisions=s.rating_decisions)
             ratings.update(name, other, games, fixed=s.names(s.ladder))
             rates[other] = summarise(games, n_boot=200)["point_win_rate"]["value"]
         self.ratings = ratings.to_json()

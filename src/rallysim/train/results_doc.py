@@ -50,7 +50,12 @@ def regenerate(doc: str, data_dir: Path) -> str:
         path = data_dir / f"{m['name']}.json"
         if not path.is_file():
             raise FileNotFoundError(f"generated block {m['name']!r} needs {path}")
-        return m.group(1) + render(json.loads(path.read_text())) + m.group(4)
+        data = json.loads(path.read_text())
+        if data.get("kind") == "compete_study":  # docs/competitive.md's tables
+            from rallysim.train.compete_study import render as render_study
+
+            return m.group(1) + render_study(data) + m.group(4)
+        return m.group(1) + render(data) + m.group(4)
 
     return BLOCK.sub(fill, doc)
 

@@ -134,7 +134,7 @@ class LeagueSettings:
 
     SECTION: ClassVar[str] = "league"
 
-    snapshot_every: int = 25_000  # turns between snapshots of the learner
+    snapshot_every: int = 40_000  # turns between snapshots of the learner
     win_threshold: float = 0.6  # a snapshot early once the learner wins this share of points
     win_points: int = 2000  # ... counted over at least this many training points
     window: int = 10  # recent snapshots kept in the pool beside the latest
@@ -146,6 +146,7 @@ class LeagueSettings:
     max_decisions: int = 20_000  # per training game (lets between non-missing players)
     eval_opponents: str = "scripted,hrl"  # the point-win rates an evaluation reports
     rating_games: int = 8  # games per ladder agent when a snapshot is rated
+    rating_decisions: int = 5_000  # ... each stopped after this many decisions (by its score)
     ladder: str = "random,scripted,hrl,mono"  # the reference agents snapshots are rated against
 
     def __post_init__(self) -> None:
@@ -164,6 +165,7 @@ _LEAGUE_BOUNDS: dict[str, Bound] = {
     "snapshot_every": at_least(1), "win_threshold": within(0, 1), "win_points": at_least(1),
     "window": at_least(0), "latest_ratio": within(0, 1), "anchor_ratio": within(0, 1),
     "max_decisions": at_least(1), "rating_games": at_least(0),
+    "rating_decisions": at_least(1),
 }
 
 
