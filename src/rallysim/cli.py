@@ -440,7 +440,8 @@ def _check_opponent(args: argparse.Namespace, human: int | None) -> bool:
 
 
 def _opponent(args: argparse.Namespace) -> Agent:
-    """The person's opponent: the agent ``--opponent`` names (default ``scripted``), or, when
+    """The person's opponent: the agent ``--opponent`` names (default ``simple_compete``, the
+    shipped champion), or, when
     ``--policy`` or ``--high`` are given instead, their levels as one hierarchical agent (the
     computer of earlier versions)."""
     from rallysim.eval.agents import Hierarchical, agent

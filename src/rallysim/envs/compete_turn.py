@@ -54,6 +54,7 @@ class CompeteTurnVectorEnv(NativeVectorEnv):
         self.goals[:] = spec.goal.default
         self.elapsed = np.zeros(n, np.int64)
         self.rng = np.random.default_rng(seed)
+        self._resumed_rng: dict[str, Any] | None = None
         self.opponent_of = np.zeros(n, np.int64)
         self.set_opponents(opponents, weights)
         self.decisions_simulated = 0
@@ -105,6 +106,15 @@ class CompeteTurnVectorEnv(NativeVectorEnv):
     def _seed_units(self, seeds: list[int]) -> None:
         self.task.game.seed_each(seeds)
         self.rng = np.random.default_rng(seeds[0])
+        if self._resumed_rng is not None:  # a resumed run's opponent stream goes on
+            self.rng.bit_generator.state = self._resumed_rng
+            self._resumed_rng = None
+
+    def resume_opponent_stream(self, state: dict[str, Any]) -> None:
+        """Continue the opponent draws from ``state`` (a saved ``rng.bit_generator.state``),
+        now and after the next seeded reset (a resumed trainer's first reset reseeds)."""
+        self.rng.bit_generator.state = state
+        self._resumed_rng = state
 
     def _reset_units(self, units: np.ndarray, options: dict | None) -> None:
         self.task.reset(units)

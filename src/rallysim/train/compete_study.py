@@ -236,9 +236,13 @@ def render(result: dict[str, Any]) -> str:
                  + f" | {_cell(p['best_response'])} | |")
     lines += ["", "Snapshot ratings (OpenSkill ordinal against the fixed ladder), oldest first:",
               ""]
+    strict = 0
     for s in result["seeds"]:
-        values = ", ".join(f"{r['rating']:.2f}" for r in s["ratings"] if r["rating"] is not None)
-        lines.append(f"- seed {s['seed']}: {values}")
+        values = [r["rating"] for r in s["ratings"] if r["rating"] is not None]
+        strict += all(b > a for a, b in itertools.pairwise(values))
+        lines.append(f"- seed {s['seed']}: {', '.join(f'{v:.2f}' for v in values)}")
+    lines += ["", f"Never falling on {sum(s['ratings_monotonic'] for s in result['seeds'])} of "
+              f"{len(result['seeds'])} seeds; strictly rising on {strict}."]
     cp = result["crossplay"]
     names = [_short(n, result) for n in cp["players"]]
     lines += ["", f"Cross-play (point-win rate of row against column, {cp['games']} games per "

@@ -171,4 +171,4 @@ class League:
             raise FileNotFoundError(f"the league's snapshot(s) {', '.join(missing)} are "
                                     f"missing from {self.out / POOL}; restart the run")
         self.refresh()
-        self.env.rng.bit_generator.state = state["rng"]
+        self.env.resume_opponent_stream(state["rng"])
