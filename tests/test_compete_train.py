@@ -107,8 +107,8 @@ def test_pool_weights():
     league.snapshots = [{"name": f"s{i}", "turns": i} for i in range(5)]
     league._agents = {f"s{i}": object() for i in range(5)}
     agents, weights = league.opponents()
-    # the latest (s4) half the time, the anchors (scripted) 0.2, the window (s2, s3) the rest
+    # the latest (s4) half the time, the anchors (scripted) 0.3, the window (s2, s3) the rest
     assert agents[0] is league._agents["s4"]
     assert agents[1:3] == [league._agents["s2"], league._agents["s3"]]
-    assert weights == pytest.approx([0.5, 0.15, 0.15, 0.2])
+    assert weights == pytest.approx([0.5, 0.1, 0.1, 0.3])
     assert sum(weights) == pytest.approx(1.0)

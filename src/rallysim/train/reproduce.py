@@ -77,6 +77,7 @@ BUDGETS = {
     # the paper's method throughout: the low level trained from scratch
     "scratch": Budget("scratch", 2_000_000, 45_000, 3, 200, warm_start="none"),
 }
+METHOD_STAGES = ("low", "high", "mono")  # Table VII's stages (not compete)
 
 
 def _say(queue: Any, text: str) -> None:
@@ -124,11 +125,11 @@ def train_seed(seed: int, budget: Budget, out: Path, queue: Any = None) -> dict[
     from rallysim.train.config import load_config
     from rallysim.train.run_log import finished
     from rallysim.train.runner import train_stage
-    from rallysim.train.stages import NAMES, headline
+    from rallysim.train.stages import headline
 
     curves: dict[str, Any] = {}
     smoke = budget.name == "smoke"
-    for stage in NAMES:
+    for stage in METHOD_STAGES:
         run = out / "runs" / f"{stage}_seed{seed}"
         overrides = {"seed": seed, **budget.overrides(stage)}
         if smoke:
