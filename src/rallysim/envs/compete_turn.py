@@ -55,7 +55,9 @@ class CompeteTurnVectorEnv(NativeVectorEnv):
         self.elapsed = np.zeros(n, np.int64)
         self.rng = np.random.default_rng(seed)
         self._resumed_rng: dict[str, Any] | None = None
-        self.opponent_of = np.zeros(n, np.int64)
+        self.opponent_of = np.zeros(n, np.int64)  # each game's opponent: its index ...
+        self._agent_of: list[Agent | None] = [None] * n  # ... and the agent itself
+        self._started: dict[int, Agent] = {}  # agents started on this env, by id
         self.set_opponents(opponents, weights)
         self.decisions_simulated = 0
         self._tally = np.zeros(2, np.int64)  # points won, lost since take_tally()
@@ -78,9 +80,6 @@ class CompeteTurnVectorEnv(NativeVectorEnv):
                 or w.sum() <= 0:
             raise ValueError(f"weights must be {len(opponents)} non-negative finite numbers "
                              f"with a positive sum, got {weights!r}")
-        if not hasattr(self, "_agent_of"):
-            self._agent_of: list[Agent] = [opponents[0]] * self.num_units
-            self._started: dict[int, Agent] = {}
         # an agent keeps its per-game state (held goals) while games against it go on: only
         # agents new to this env start afresh; the dict pins them, so no id is reused
         in_use = {id(a) for a in self._agent_of}

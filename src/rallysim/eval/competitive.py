@@ -42,6 +42,11 @@ class Games:
     def n(self) -> int:
         return len(self.winner)
 
+    @property
+    def point_win_rate(self) -> float:
+        """a's share of the points played (NaN: none played); ``summarise`` adds its interval."""
+        return _ratio(self.points[:, 0], self.points.sum(axis=1))
+
 
 class Match:
     """N games of agent ``a`` against agent ``b``, advanced one decision at a time: the one

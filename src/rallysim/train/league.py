@@ -138,7 +138,7 @@ class League:
         s = self.config.league
         if not s.rating_games:
             return {}
-        from rallysim.eval.competitive import play_games, summarise
+        from rallysim.eval.competitive import play_games
         from rallysim.eval.ratings import Ratings
 
         ratings = Ratings.from_json(self.ratings) if self.ratings else Ratings()
@@ -149,7 +149,7 @@ class League:
                                seed=self.config.eval.seed + i, shuttle=self.config.shuttle,
                                max_decisions=s.rating_decisions)
             ratings.update(name, other, games, fixed=s.names(s.ladder))
-            rates[other] = summarise(games, n_boot=200)["point_win_rate"]["value"]
+            rates[other] = games.point_win_rate
         self.ratings = ratings.to_json()
         return {"rating": ratings.ordinal(name), "point_win_rate": rates}
 
