@@ -55,7 +55,7 @@ def test_pretrained_humanlike_hierarchy_meets_the_targets(tmp_path):
     assert main(["evaluate", "--player", "humanlike", "--episodes", "200", "--rallies", "16",
                  "--seeds", "1", "--json", str(path)]) == 0
     data = json.loads(path.read_text())
-    r = data["returns"]
+    r = data["low_level"]
     assert r["episodes"] == 200 and data["policies"] == {"low": "pretrained",
                                                          "high": "pretrained"}
     assert r["hit_rate"] >= 0.9

@@ -569,7 +569,7 @@ def _evaluate_humanlike(args: argparse.Namespace) -> dict:
     _say_deprecated("evaluate", args.deprecated)
     results = evaluate_humanlike_player(args.low, args.high or "pretrained", args.episodes,
                                         args.rallies, args.seeds, args.shuttle)
-    r, t = results["returns"], results["targets"]
+    r, t = results["low_level"], results["targets"]
     print(f"low level {args.low}: {r['episodes']} serves, hit rate {r['hit_rate']:.3f} "
           f"(target >= {t['hit_rate']}), mean angle error {r['mean_angle_error']:.2f} deg "
           f"(<= {t['mean_angle_error']}), median {r['median_angle_error']:.2f} deg, mean "
@@ -582,6 +582,7 @@ def _evaluate_humanlike(args: argparse.Namespace) -> dict:
 def _evaluate_simple(args: argparse.Namespace) -> dict:
     """HRL, Random High-level and Monolithic on SIMPLE rallies."""
     from rallysim.eval.compare import evaluate_methods
+    from rallysim.eval.low_eval import score_low_level
     from rallysim.policies.registry import resolve
     from rallysim.train.progress import Heartbeat, progress_lines
 
@@ -600,7 +601,13 @@ def _evaluate_simple(args: argparse.Namespace) -> dict:
         print(_rally_line(method, s))
     for method, s in results["methods"].items():
         print(_losses_line(method, s))
-    return results
+    low = score_low_level(resolve(args.low, "low", "simple"), args.episodes,
+                          shuttle=args.shuttle)
+    print(f"low level {args.low}: {low['episodes']} serves, hit rate {low['hit_rate']:.3f}, "
+          f"median landing error {low['median_landing_error']:.2f} m, goal correlation "
+          f"{low['goal_correlation']:.3f} over the {low['reachable_hits']} hits whose goal "
+          f"the serve makes reachable ({low['goal_correlation_all']:.3f} over all hits)")
+    return {"low_level": low, **results}
 
 
 # what `rallysim evaluate --player P` evaluates
@@ -867,7 +874,7 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--high", help="high level: path prefix or pretrained (the default); "
                                    "humanlike: also centre or random")
     ev.add_argument("--episodes", type=_positive, default=500,
-                    help="humanlike: serves returned")
+                    help="fresh serves the low level returns (its low_level scores)")
     ev.add_argument("--mono", default="pretrained", help="Monolithic: path prefix or pretrained")
     ev.add_argument("--rallies", type=_positive, default=100,
                     help="rallies per seed and method")

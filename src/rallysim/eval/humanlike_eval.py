@@ -76,5 +76,5 @@ def evaluate_humanlike_player(low: str = "pretrained", high: str = "pretrained",
                                   RallyConfig(shuttle=shuttle), rally=HumanLikeRallyTask)
               for s in range(seeds)]
     return {"policies": {"low": low, "high": high}, "shuttle": shuttle, "targets": TARGETS,
-            "returns": returns, "rally": summarise_rallies(groups).to_dict(),
+            "low_level": returns, "rally": summarise_rallies(groups).to_dict(),
             "lengths": [g.tolist() for g in groups]}
