@@ -113,7 +113,8 @@ BAD_SETTINGS = [
     "ppo.net_arch=[true]", "ppo.net_arch={a: 1}", "ppo.activation=sigmoid",
     "ppo.activation=", "ppo.log_std_init=.nan", "ppo.log_std_init=-.inf", "torch_threads=0",
     "eval.every=-1", "eval.episodes=0", "checkpoint_every=0", "low_policy=", "low_policy=5",
-    "incoming=volley", "keep_bodies=maybe", "ppo.anneal_lr=2", "warm_start.teacher=teacher",
+    "incoming=volley", "goals=anywhere", "keep_bodies=maybe", "ppo.anneal_lr=2",
+    "warm_start.teacher=teacher",
     "warm_start.decisions=0", "warm_start.epochs=0", "warm_start.log_std=.nan",
     "warm_start.dagger=-1", "warm_start.batch_size=0", "warm_start.lr=0",
     "warm_start.lr_decay=3", "shuttle=feather", "player=3d", "stage=nope", "foo=1",
@@ -469,9 +470,9 @@ def test_settings_text_is_read_as_the_field_type():
 
 
 def test_copies_of_bounds_match_their_source():
-    from rallysim.envs.simple_return_v0 import INCOMING
+    from rallysim.envs.simple_return_v0 import GOALS, INCOMING
 
-    assert train_config.INCOMING == INCOMING
+    assert train_config.INCOMING == INCOMING and train_config.GOALS == GOALS
     assert cli.SEED_MAX == train_config.SEED_MAX
 
 

@@ -27,6 +27,7 @@ from __future__ import annotations
 import gymnasium as gym
 
 SIMPLE_RETURN_ID = "RallySim/SimpleReturn-v0"
+SIMPLE_RETURN_V1_ID = "RallySim/SimpleReturn-v1"
 SIMPLE_RALLY_TURN_ID = "RallySim/SimpleRallyTurn-v0"
 SIMPLE_RALLY_TURN_V1_ID = "RallySim/SimpleRallyTurn-v1"
 HUMANLIKE_RETURN_ID = "RallySim/HumanLikeReturn-v0"
@@ -48,6 +49,10 @@ _SPECS: dict[str, tuple[str, str, dict]] = {
     SIMPLE_RETURN_ID: (_ENVS + "simple_return_v0:SimpleReturnEnv",
                        _ENVS + "simple_return_v0:SimpleReturnVectorEnv",
                        {"max_episode_steps": None}),
+    # v1: goals the serve makes reachable (envs.simple_return_v0's version history)
+    SIMPLE_RETURN_V1_ID: (_ENVS + "simple_return_v0:SimpleReturnEnv",
+                          _ENVS + "simple_return_v0:SimpleReturnVectorEnv",
+                          {"max_episode_steps": None, "kwargs": {"goals": "reachable"}}),
 }
 
 

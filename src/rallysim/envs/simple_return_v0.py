@@ -41,6 +41,7 @@ Terminates when the shuttle's centre drops below z = 0; truncates after 1000 dec
 | ``target_depth_range`` | ``(2.0, 6.0)`` | goals are drawn uniformly from this range |
 | ``max_decisions`` | ``1000`` | truncation |
 | ``keep_bodies`` | ``False`` | ``True``: like the original builds, a new episode starts with the player where the last one left it (the first from a random start); reset options still place it |
+| ``goals`` | ``"uniform"`` | ``"uniform"``: d* ~ U[range]; ``"reachable"`` (the default of ``-v1``): d* uniform over the depths a full-speed shot from a meeting the player can make reaches (``rallysim.core.reach.ShotPlanner``, the paper flight model), within the range: the nearest end of the range when the serve reaches none of it, the whole range when it reaches no depth |
 | ``incoming`` | ``"serve"`` | what comes over: the machine serve (the paper); ``"rally"``: a shot drawn from 4,096 recorded rally shots (scripted players aiming at 2-6 m); ``"mixed"``: either, half the time each |
 
 ``reset(options=...)`` accepts ``target_depth`` (metres, in [2, 6]), ``base_x`` (metres, in
@@ -55,6 +56,9 @@ a hit and the landing keys only at the landing; the vector env gives arrays for 
 NaN where a value does not apply and Gymnasium's ``_key`` masks marking where it does.
 
 ## Version history
+- v1: ``goals="reachable"``. Over 1,000 fresh serves only 39 % of v0's U[2, 6] m goals can be
+  reached at all (the deepest full-speed return lands 3.8 m deep in the median); see
+  docs/rl-alone.md for what the change does to learning from scratch.
 - v0: first release. Fix (2026-11-23): reset options no longer shift the random stream
   (episodes reset without options are unchanged).
 """
@@ -68,6 +72,7 @@ from gymnasium import spaces
 
 from rallysim.core.game import Game
 from rallysim.core.lanes import column
+from rallysim.core.reach import ShotPlanner
 from rallysim.core.serve import FedShots, MachineServe, Serve
 from rallysim.envs.rendering import RENDER_MODES, EnvView
 from rallysim.envs.simple_obs import (
@@ -94,6 +99,7 @@ R_DIST_RATE = 0.5
 INCOMING = ("serve", "mixed", "rally")
 RALLY_SHOT_SHARE = {"mixed": 0.5, "rally": 1.0}  # games served a recorded rally shot
 LANDING_KEYS = ("landing_point", "landing_depth", "landing_error", "landed_in")
+GOALS = ("uniform", "reachable")
 
 
 class ReturnTask:
@@ -102,7 +108,11 @@ class ReturnTask:
     def __init__(self, num_envs: int, shuttle: str = "paper", seed: int | None = None,
                  target_depth_range: tuple[float, float] = TARGET_DEPTH_RANGE,
                  max_decisions: int = MAX_DECISIONS, incoming: str = "serve",
-                 keep_bodies: bool = False) -> None:
+                 keep_bodies: bool = False, goals: str = "uniform") -> None:
+        if goals not in GOALS:
+            raise ValueError(f"unknown goals {goals!r}; valid: {', '.join(map(repr, GOALS))}")
+        self.goals = goals
+        self._planner = ShotPlanner() if goals == "reachable" else None
         if incoming not in INCOMING:
             raise ValueError(f"unknown incoming {incoming!r}; valid: "
                              f"{', '.join(map(repr, INCOMING))}")
@@ -143,9 +153,24 @@ class ReturnTask:
         self.game.reset(envs, receiver=0, base_x=base_x[:, None], theta=theta[:, None])
         b.omega[carry, 0] = omega
         self._started[envs] = True
-        self.goal[envs] = given.get("target_depth",
-                                    np.array([r.uniform(*self.depth_range) for r in rngs]))
+        if "target_depth" in given:
+            self.goal[envs] = given["target_depth"]
+        elif self._planner is None:
+            self.goal[envs] = np.array([r.uniform(*self.depth_range) for r in rngs])
+        else:
+            self.goal[envs] = self._reachable_goals(envs, np.array([r.uniform() for r in rngs]))
         self.elapsed[envs] = 0
+
+    def _reachable_goals(self, envs: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """Goals at the quantiles ``u`` of the depths these serves make reachable
+        (``ShotPlanner.reachable_depths``) within the goal range; a serve that reaches none
+        of them gets the nearest end of the range, one that reaches no depth at all the
+        whole range."""
+        lo, hi = self._planner.reachable_depths(self.observe()[envs, :PLAYER_OBS_SIZE])
+        none = np.isnan(lo)
+        lo = np.clip(np.where(none, self.depth_range[0], lo), *self.depth_range)
+        hi = np.clip(np.where(none, self.depth_range[1], hi), *self.depth_range)
+        return lo + u * (hi - lo)
 
     def reset_options(self, options: dict[str, Any] | None, k: int) -> dict[str, np.ndarray]:
         """The given reset options for ``k`` environments, checked (``ValueError``)."""
@@ -223,9 +248,10 @@ class SimpleReturnEnv(TaskEnv):
     def __init__(self, shuttle: str = "paper",
                  target_depth_range: tuple[float, float] = TARGET_DEPTH_RANGE,
                  max_decisions: int = MAX_DECISIONS, render_mode: str | None = None,
-                 incoming: str = "serve", keep_bodies: bool = False) -> None:
+                 incoming: str = "serve", keep_bodies: bool = False,
+                 goals: str = "uniform") -> None:
         task = ReturnTask(1, shuttle, None, target_depth_range, max_decisions, incoming,
-                          keep_bodies)
+                          keep_bodies, goals)
         self._init_task(task, OBS_SIZE, ACTION_SIZE, render_mode, {})
 
     def _frame(self, view: EnvView, env: int) -> np.ndarray | None:
@@ -256,10 +282,10 @@ class SimpleReturnVectorEnv(TaskVectorEnv):
                  max_decisions: int = MAX_DECISIONS, autoreset_mode: str = "next_step",
                  render_mode: str | None = None, seed: int | None = None,
                  render_envs: int = 1, incoming: str = "serve",
-                 keep_bodies: bool = False) -> None:
+                 keep_bodies: bool = False, goals: str = "uniform") -> None:
         num_envs = positive_int(num_envs, "num_envs")
         task = ReturnTask(num_envs, shuttle, seed, target_depth_range, max_decisions,
-                          incoming, keep_bodies)
+                          incoming, keep_bodies, goals)
         self._init_task(num_envs, autoreset_mode, task, _spaces(), render_mode, render_envs, {})
 
     def _frame(self, view: EnvView, env: int) -> np.ndarray | None:

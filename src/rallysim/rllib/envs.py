@@ -56,6 +56,7 @@ def make_return_env(env_config: dict[str, Any]) -> gym.Env | gym.vector.VectorEn
 
     kwargs["incoming"] = env_config.get("incoming", "serve")
     kwargs["keep_bodies"] = bool(env_config.get("keep_bodies", False))
+    kwargs["goals"] = env_config.get("goals", "uniform")
     return SimpleReturnEnv(**kwargs) if n is None else SimpleReturnVectorEnv(int(n), **kwargs)
 
 

@@ -42,6 +42,7 @@ CONFIG_DIR = Path(__file__).parent / "configs"
 # the low stage's ``incoming`` values; a copy of envs.simple_return_v0.INCOMING (a test keeps
 # them equal) because importing the environment here would load MuJoCo for every config read
 INCOMING = ("serve", "mixed", "rally")
+GOALS = ("uniform", "reachable")  # likewise envs.simple_return_v0.GOALS
 BUDGET_UNIT = "budget_unit"  # written beside the budget; read back only to check it
 
 
@@ -73,6 +74,8 @@ class TrainConfig:
     # state from one episode to the next (the original builds) instead of a random start
     incoming: str = "serve"
     keep_bodies: bool = False
+    # low stage, SIMPLE: the goals drawn ("uniform": SimpleReturn-v0's; "reachable": -v1's)
+    goals: str = "uniform"
     ppo: PPOSettings = field(default_factory=PPOSettings)
     warm_start: WarmStartSettings = field(default_factory=WarmStartSettings)
     eval: EvalSettings = field(default_factory=EvalSettings)
@@ -152,7 +155,7 @@ class TrainConfig:
 
 _CHOICES: dict[str, tuple[str, ...]] = {
     "stage": STAGES, "player": tuple(PLAYERS), "shuttle": tuple(SHUTTLE_MODELS),
-    "incoming": INCOMING,
+    "incoming": INCOMING, "goals": GOALS,
 }
 _BOUNDS: dict[str, Bound] = {"seed": SEED, "torch_threads": at_least(1),
                              "checkpoint_every": at_least(1)}

@@ -14,7 +14,11 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, ClassVar
 
-from rallysim.envs.registration import HUMANLIKE_RETURN_ID, SIMPLE_RETURN_ID
+from rallysim.envs.registration import (
+    HUMANLIKE_RETURN_ID,
+    SIMPLE_RETURN_ID,
+    SIMPLE_RETURN_V1_ID,
+)
 from rallysim.train.stages.base import Act, Stage
 
 if TYPE_CHECKING:
@@ -41,7 +45,7 @@ class LowPlayer:
 
 def _simple_kwargs(config: TrainConfig) -> dict[str, Any]:
     return {"shuttle": config.shuttle, "incoming": config.incoming,
-            "keep_bodies": config.keep_bodies}
+            "keep_bodies": config.keep_bodies, "goals": config.goals}
 
 
 def _simple_evaluate(config: TrainConfig, act: Act, episodes: int) -> dict[str, Any]:
@@ -124,7 +128,7 @@ class LowStage(Stage):
     def env_options(self, config: TrainConfig) -> dict[str, Any]:
         # "env" names the player: the key rallysim.rllib.envs.make_return_env reads
         return {"shuttle": config.shuttle, "env": config.player, "incoming": config.incoming,
-                "keep_bodies": config.keep_bodies}
+                "keep_bodies": config.keep_bodies, "goals": config.goals}
 
     def evaluate(self, config: TrainConfig, act: Act, rallies: int | None = None
                  ) -> dict[str, Any]:
@@ -134,6 +138,8 @@ class LowStage(Stage):
         return PLAYERS[config.player].headline(result)
 
     def export_env(self, config: TrainConfig) -> str:
+        if config.player == "simple" and config.goals == "reachable":
+            return SIMPLE_RETURN_V1_ID
         return PLAYERS[config.player].env_id
 
     def teacher(self, config: TrainConfig) -> tuple[Act, str]:
