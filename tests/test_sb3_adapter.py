@@ -102,12 +102,12 @@ def test_unseeded_batches_differ():
 
 BATCHED_IDS = ["RallySim/HumanLikeRallyTurn-v0", "RallySim/HumanLikeReturn-v0",
                "RallySim/SimpleRallyTurn-v0", "RallySim/SimpleRallyTurn-v1",
-               "RallySim/SimpleReturn-v0"]
+               "RallySim/SimpleReturn-v0", "RallySim/SimpleReturn-v1"]
 
 
 def test_every_batched_id_builds():
     ids = native_ids()
-    # exactly these five (docs/using-with.md lists them); CartPole-v1 has a vector entry
+    # exactly these six (docs/using-with.md lists them); CartPole-v1 has a vector entry
     # point, but not a RallySim batched env
     assert ids == BATCHED_IDS
     for env_id in ids:

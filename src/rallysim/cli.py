@@ -845,10 +845,12 @@ def build_parser() -> argparse.ArgumentParser:
     train.set_defaults(run=_train)
 
     repro = sub.add_parser("reproduce", help="the whole pipeline and the paper's Table VII")
-    repro.add_argument("--budget", choices=("default", "quick", "scratch", "smoke"),
+    repro.add_argument("--budget", choices=("default", "quick", "scratch", "rl", "smoke"),
                        default="default",
                        help="default: ~15 min on 2 cores; quick: a look in ~5 min; scratch: "
-                            "the default with the low level trained from scratch")
+                            "the default with the low level trained from scratch; rl: no "
+                            "teacher anywhere, the low level from scratch on "
+                            "SimpleReturn-v1")
     repro.add_argument("--out", type=_out_dir, default="results")
     repro.add_argument("--workers", type=_positive, default=3, help="seeds trained at once")
     repro.add_argument("--seeds", type=_positive,

@@ -6,6 +6,7 @@
 | ``random`` | uniform actions | uniform actions | uniform goals | uniform actions |
 | ``fixed:G`` | — | — | always the goal G (comma-separated values) | — |
 | ``pretrained`` | the shipped one | the shipped low level | the shipped one | the shipped one |
+| a shipped name | ``pretrained/NAME.*`` (e.g. ``simple_low_rl``) | same | same | same |
 | a path prefix | ``PREFIX.safetensors`` + ``PREFIX.json`` | same | same | same |
 
 A callable is returned as it is. A high-level network's action becomes its goal by the player's
@@ -14,6 +15,7 @@ goal mapping (``PlayerSpec.goal.from_action``; SIMPLE: 4 + 2a metres).
 
 from __future__ import annotations
 
+import json
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -43,8 +45,23 @@ def load_network(spec: str, role: str, player: str = "simple") -> Callable:
     """A stored network (``pretrained`` or a path prefix) of ``role`` (low, high, mono)."""
     from rallysim.policies.mlp import load_policy
 
-    prefix = pretrained_prefix(role, player) if spec == "pretrained" else Path(spec)
+    prefix = (pretrained_prefix(role, player) if spec == "pretrained"
+              else shipped_prefix(spec, role) or Path(spec))
     return load_policy(prefix)
+
+
+def shipped_prefix(name: str, role: str | None = None) -> Path | None:
+    """The prefix of a policy shipped under ``name`` (``pretrained/NAME.json``), else None;
+    given ``role`` (low, high, mono), one trained for another role is refused."""
+    prefix = PRETRAINED / name
+    simple_name = name.replace("_", "").isalnum()
+    if not (simple_name and prefix.with_suffix(".json").is_file()):
+        return None
+    stage = json.loads(prefix.with_suffix(".json").read_text())["metadata"].get("stage")
+    if role is not None and stage != role:
+        raise ValueError(f"the shipped policy {name!r} is a {stage}-level policy, not a "
+                         f"{role}-level one")
+    return prefix
 
 
 def resolve(spec: Any, role: str, player: str | PlayerSpec = "simple",
@@ -69,7 +86,7 @@ def resolve(spec: Any, role: str, player: str | PlayerSpec = "simple",
         return p.scripted_task_low() if role == "low" else p.scripted_low()
     if spec.startswith("fixed:") and role == "high":
         return FixedGoal(_fixed_goal(spec, p))
-    if spec != "pretrained" and not _looks_like_path(spec):
+    if spec != "pretrained" and shipped_prefix(spec) is None and not _looks_like_path(spec):
         _refuse(spec, role, p)
     network = load_network(spec, NETWORK_ROLE[role], p.name)
     if role == "rally_low":

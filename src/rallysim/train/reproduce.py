@@ -57,13 +57,14 @@ class Budget:
     rallies: int  # evaluation rallies per seed and method
     low_eval_episodes: int = 1000
     warm_start: str = "scripted"  # the low level's start: "scripted" (cloned) or "none"
+    goals: str = "uniform"  # the low level's task: SimpleReturn-v0 ("uniform") or -v1
 
     def overrides(self, stage: str) -> dict[str, Any]:
         """The stage's settings from this budget (the mono stage's follow from the others':
         ``train_seed``)."""
         per_stage = {
             "low": {"budget": self.low_decisions, "warm_start.teacher": self.warm_start,
-                    "eval.every": max(self.low_decisions // 8, 1)},
+                    "eval.every": max(self.low_decisions // 8, 1), "goals": self.goals},
             "high": {"budget": self.high_turns, "eval.every": max(self.high_turns // 3, 1),
                      "checkpoint_every": max(self.high_turns // 6, 1)},
         }
@@ -76,6 +77,8 @@ BUDGETS = {
     "smoke": Budget("smoke", 8_192, 256, 2, 8, 64, warm_start="none"),
     # the paper's method throughout: the low level trained from scratch
     "scratch": Budget("scratch", 2_000_000, 45_000, 3, 200, warm_start="none"),
+    # no teacher anywhere: PPO from scratch on SimpleReturn-v1's reachable goals
+    "rl": Budget("rl", 2_000_000, 45_000, 3, 200, warm_start="none", goals="reachable"),
 }
 METHOD_STAGES = ("low", "high", "mono")  # Table VII's stages (not compete)
 
@@ -156,7 +159,7 @@ def evaluate_seed(seed: int, out: Path, rallies: int, low_episodes: int,
     """Rally lengths of every method (rallies end at ``cap`` hits), and the low level's
     numbers, for one trained seed."""
     from rallysim.eval.compare import play_methods
-    from rallysim.eval.low_eval import evaluate_return
+    from rallysim.eval.low_eval import evaluate_return, score_low_level
     from rallysim.eval.rally_eval import rules_for_cap
     from rallysim.policies.mlp import load_policy
     from rallysim.policies.registry import resolve
@@ -169,9 +172,14 @@ def evaluate_seed(seed: int, out: Path, rallies: int, low_episodes: int,
     eval_seed = 1_000_000 + 1000 * seed  # unseen by training (its envs use seed + i)
     lengths = play_methods(high, low, mono, rallies, eval_seed, rules_for_cap(cap), beat,
                            f"seed {seed} ")
-    low_eval = evaluate_return(load_policy(low_prefix), episodes=low_episodes, seed=eval_seed)
+    low_policy = load_policy(low_prefix)
+    low_eval = evaluate_return(low_policy, episodes=low_episodes, seed=eval_seed)
+    scores = score_low_level(low_policy, low_episodes, seed=eval_seed)
+    # (null, not NaN, where too few hits leave a value undefined: JSON has no NaN)
+    follows = {k: None if np.isnan(scores[k]) else scores[k]
+               for k in ("goal_correlation", "median_landing_error_reachable")}
     return {"lengths": {k: v.tolist() for k, v in lengths.items()},
-            "low_level": low_eval.as_dict()}
+            "low_level": {**low_eval.as_dict(), **follows}}
 
 
 def run_reproduce(budget: Budget, out: Path, workers: int = 3, seeds: int | None = None,
@@ -339,13 +347,21 @@ def losses_table(r: dict[str, Any]) -> list[str]:
     return lines
 
 
+def _number(value: float | None, digits: int) -> str:
+    return "—" if value is None else f"{value:.{digits}f}"
+
+
 def low_level_table(r: dict[str, Any]) -> list[str]:
     """Each seed's low level on fresh serves (deterministic policy)."""
-    lines = ["| seed | mean episode reward | hit rate | landed in | median landing error |",
-             "|---|---|---|---|---|"]
-    for seed, low in zip(r["per_seed"], r["low_level"]["per_seed"], strict=True):
+    per_seed = r["low_level"]["per_seed"]
+    follows = all("goal_correlation" in low for low in per_seed)  # (older runs lack it)
+    head = "| seed | mean episode reward | hit rate | landed in | median landing error |"
+    lines = [head + (" goal correlation (reachable goals) |" if follows else ""),
+             "|---|---|---|---|---|" + ("---|" if follows else "")]
+    for seed, low in zip(r["per_seed"], per_seed, strict=True):
         lines.append(f"| {seed} | {low['mean_reward']:.3f} | {low['hit_rate']:.3f} | "
-                     f"{low['in_rate']:.3f} | {low['median_error']:.2f} m |")
+                     f"{low['in_rate']:.3f} | {low['median_error']:.2f} m |"
+                     + (f" {_number(low['goal_correlation'], 3)} |" if follows else ""))
     return lines
 
 
@@ -380,7 +396,10 @@ def markdown_report(r: dict[str, Any]) -> str:
         f"{b['low_decisions']:,} decisions"
         + (" after a behaviour-cloning warm start from the scripted controller (not the paper's "
            "method: PPO from scratch learns to hit but ignores the goal)"
-           if b["warm_start"] == "scripted" else " from scratch (the paper's method)")
+           if b["warm_start"] == "scripted" else " from scratch (the paper's method)"
+           if b.get("goals", "uniform") == "uniform" else
+           " from scratch on SimpleReturn-v1 (goals the serve makes reachable; no teacher "
+           "anywhere)")
         + f", the high level {b['high_turns']:,} turns, the "
         "Monolithic baseline the same total budget; each method then played "
         f"{b['rallies']} evaluation rallies per seed (capped at {cap} hits). Wall time "

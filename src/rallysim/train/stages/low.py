@@ -121,9 +121,8 @@ class LowStage(Stage):
         # (rallysim.sb3.make_vec_env): what users get is what training uses
         from rallysim.sb3 import make_vec_env
 
-        player = PLAYERS[config.player]
-        return make_vec_env(player.env_id, config.ppo.n_envs, seed=config.seed,
-                            env_kwargs=player.env_kwargs(config))
+        return make_vec_env(self.export_env(config), config.ppo.n_envs, seed=config.seed,
+                            env_kwargs=PLAYERS[config.player].env_kwargs(config))
 
     def env_options(self, config: TrainConfig) -> dict[str, Any]:
         # "env" names the player: the key rallysim.rllib.envs.make_return_env reads
