@@ -120,3 +120,13 @@ def test_rl_alone_doc_matches_its_run():
         "run: python -m rallysim.train.results_doc --doc docs/rl-alone.md")
     data = json.loads((root / "docs" / "data" / "reproduce_rl.json").read_text())
     assert data["budget"]["name"] == "rl" and data["budget"]["goals"] == "reachable"
+
+
+def test_v1_goal_option_does_not_shift_the_stream():
+    from rallysim.envs.simple_return_v0 import SimpleReturnEnv
+
+    plain, given = SimpleReturnEnv(goals="reachable"), SimpleReturnEnv(goals="reachable")
+    plain.reset(seed=8)
+    _, info = given.reset(seed=8, options={"target_depth": 5.0})
+    assert info["target_depth"] == 5.0
+    np.testing.assert_array_equal(plain.reset()[0], given.reset()[0])

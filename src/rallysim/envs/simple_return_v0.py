@@ -153,12 +153,13 @@ class ReturnTask:
         self.game.reset(envs, receiver=0, base_x=base_x[:, None], theta=theta[:, None])
         b.omega[carry, 0] = omega
         self._started[envs] = True
-        if "target_depth" in given:
-            self.goal[envs] = given["target_depth"]
-        elif self._planner is None:
-            self.goal[envs] = np.array([r.uniform(*self.depth_range) for r in rngs])
+        # (drawn even when the option gives the goal, so that the stream does not shift)
+        if self._planner is None:
+            drawn = np.array([r.uniform(*self.depth_range) for r in rngs])
         else:
-            self.goal[envs] = self._reachable_goals(envs, np.array([r.uniform() for r in rngs]))
+            u = np.array([r.uniform() for r in rngs])
+            drawn = None if "target_depth" in given else self._reachable_goals(envs, u)
+        self.goal[envs] = given.get("target_depth", drawn)
         self.elapsed[envs] = 0
 
     def _reachable_goals(self, envs: np.ndarray, u: np.ndarray) -> np.ndarray:

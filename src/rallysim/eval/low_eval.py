@@ -81,7 +81,7 @@ def play_returns(policy: Policy, env: SimpleReturnVectorEnv | None = None,
                 landed_in[e] = hit[e] & final["landed_in"][e]
                 error[e], depth[e] = final["landing_error"][e], final["landing_depth"][e]
                 done |= ended
-        for key, value in zip(keys[:6], (ret, hit, landed_in, error, depth), strict=False):
+        for key, value in zip(keys[:5], (ret, hit, landed_in, error, depth), strict=True):
             rows[key].append(value)
         rows["length"].append(length)
     values = {k: np.concatenate(v)[:episodes] for k, v in rows.items()}
