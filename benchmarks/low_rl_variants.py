@@ -28,28 +28,23 @@ from gymnasium import spaces
 from stable_baselines3 import PPO
 from stable_baselines3.common.vec_env import VecEnvWrapper
 
-from rallysim.core.game import PHYSICS_DT
 from rallysim.core.reach import PlayerState, ShotPlanner
 from rallysim.eval.low_eval import score_low_level
 from rallysim.policies import ScriptedController
+from rallysim.policies.scripted import DECISION
 from rallysim.sb3 import make_vec_env
 
 PLANNER = ShotPlanner()
 HEIGHTS = PLANNER.pivot_z + PLANNER.rho * np.cos(np.radians([-60.0, -40.0, -20.0, 0.0]))
-DECISION = 0.1
 
 
 def phase_features(obs: np.ndarray) -> np.ndarray:
     s = PlayerState.from_observations(obs)
     x, z = PLANNER.predict(s.pos, s.vel)
-    t = PLANNER._k * PHYSICS_DT
-    falling = np.diff(np.concatenate([s.pos[:, 2:3], z], axis=1), axis=1) < 0
+    crossed, step = PLANNER.falling_crossings(s.pos, z, HEIGHTS)
     feats = []
-    for h in HEIGHTS:
-        below = (z <= h) & falling
-        has = below.any(1)
-        idx = below.argmax(1)
-        th = np.where(has, t[idx], 0.0)
+    for has, idx in zip(crossed.T, step.T, strict=True):
+        th = np.where(has, PLANNER.times[idx], 0.0)
         xh = np.where(has, x[np.arange(len(x)), idx], s.base_x)
         ph = 2 * np.pi * th / DECISION
         feats += [np.sin(ph) * has, np.cos(ph) * has, np.minimum(th, 2.0) - 1.0,

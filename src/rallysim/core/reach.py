@@ -96,6 +96,7 @@ class ShotPlanner:
         k = np.arange(1, self.horizon_steps + 1)
         self._fk = self.factor**k
         self._k = k
+        self.times = k * PHYSICS_DT  # seconds ahead of each predicted step
 
     def _shot_range(self, elevation: float, z: float) -> float:
         """Horizontal distance of a full-speed shot at ``elevation`` from height ``z``."""
@@ -121,18 +122,21 @@ class ShotPlanner:
         z = pos[:, 2:3] + dt * (vel[:, 2:3] * geo_sum + g_term)
         return x, z
 
+    @staticmethod
+    def falling_crossings(pos: np.ndarray, z: np.ndarray, heights: np.ndarray
+                          ) -> tuple[np.ndarray, np.ndarray]:
+        """Where N shuttles at ``pos`` with predicted heights ``z`` (N, K) fall through each of
+        ``heights`` (E,): whether they do, and the first predicted step at or below the height
+        while falling (index into K), both (N, E)."""
+        falling = np.diff(np.concatenate([pos[:, 2:3], z], axis=1), axis=1) < 0
+        below = (z[:, None, :] <= heights[None, :, None]) & falling[:, None, :]
+        return below.any(axis=2), below.argmax(axis=2)
+
     def meetings(self, state: PlayerState) -> Meetings:
         """Every elevation's meeting for N players."""
-        pos = state.pos
-        x, z = self.predict(pos, state.vel)
-        t = self._k * PHYSICS_DT
-        # Descending crossings of each candidate hit height: first step whose z is below it
-        # while the shuttle falls, for (N, E) candidates.
-        falling = np.diff(np.concatenate([pos[:, 2:3], z], axis=1), axis=1) < 0
-        below = (z[:, None, :] <= self.hit_z[None, :, None]) & falling[:, None, :]
-        has = below.any(axis=2)
-        idx = below.argmax(axis=2)
-        t_hit = t[idx]
+        x, z = self.predict(state.pos, state.vel)
+        has, idx = self.falling_crossings(state.pos, z, self.hit_z)
+        t_hit = self.times[idx]
         x_hit = np.take_along_axis(x, idx, axis=1)
         base_needed = x_hit - self.hit_dx[None, :]
         in_range = (base_needed >= self.base_range[0]) & (base_needed <= self.base_range[1])

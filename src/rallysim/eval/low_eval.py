@@ -92,15 +92,19 @@ def evaluate_return(policy: Policy, env: SimpleReturnVectorEnv | None = None,
                     episodes: int = 500, seed: int = 12345, shuttle: str = "paper",
                     ) -> ReturnEval:
     """Play ``episodes`` episodes with ``policy`` (see ``play_returns``) and summarise them."""
-    ep = play_returns(policy, env, episodes, seed, shuttle)
+    return summarise_returns(play_returns(policy, env, episodes, seed, shuttle))
+
+
+def summarise_returns(ep: ReturnEpisodes) -> ReturnEval:
+    """``evaluate_return``'s statistics of played episodes."""
     errs = ep.error[ep.hit]
     errs = errs[np.isfinite(errs)]
     return ReturnEval(
-        episodes=episodes,
+        episodes=len(ep.hit),
         mean_reward=float(np.mean(ep.reward)),
         hit_rate=float(np.mean(ep.hit)),
         in_rate=float(np.mean(ep.landed_in)),
-        median_error=float(np.median(errs)) if len(errs) else float("nan"),
+        median_error=_median(errs),
         mean_error=float(errs.mean()) if len(errs) else float("nan"),
         mean_length=float(np.mean(ep.length)),
         decisions=ep.decisions,
@@ -110,17 +114,23 @@ def evaluate_return(policy: Policy, env: SimpleReturnVectorEnv | None = None,
 def score_low_level(policy: Policy, episodes: int = 1000, seed: int = 12345,
                     shuttle: str = "paper") -> dict[str, Any]:
     """How well a SIMPLE low level follows its goal on ``episodes`` fresh serves (goals
-    ~ U[2, 6] m): ``hit_rate``, ``median_landing_error`` (m, over hits) and
-    ``goal_correlation``, the correlation of landing depth with the goal over the hits whose
-    goal the serve makes reachable (``ShotPlanner.reachable_depths``: a full-speed shot from a
-    meeting the player can make lands that deep); the same over every hit beside it."""
+    ~ U[2, 6] m): see ``goal_following``."""
     ep = play_returns(policy, episodes=episodes, seed=seed, shuttle=shuttle)
+    return goal_following(ep, seed, shuttle)
+
+
+def goal_following(ep: ReturnEpisodes, seed: int, shuttle: str) -> dict[str, Any]:
+    """``hit_rate``, ``median_landing_error`` (m, over hits) and ``goal_correlation``, the
+    correlation of landing depth with the goal over the hits whose goal the serve makes
+    reachable (``ShotPlanner.reachable_depths``: a full-speed shot from a meeting the player
+    can make lands that deep); the same over every hit beside it, of episodes played from
+    ``seed`` with ``shuttle``."""
     landed = ep.hit & np.isfinite(ep.depth)
     lo, hi = ep.reach[:, 0], ep.reach[:, 1]
     reachable = (ep.goal >= lo) & (ep.goal <= hi)  # (NaN bounds: nothing reachable)
     scored = landed & reachable
     return {
-        "episodes": episodes, "seed": seed, "shuttle": shuttle,
+        "episodes": len(ep.hit), "seed": seed, "shuttle": shuttle,
         "hit_rate": float(np.mean(ep.hit)),
         "landed_in_rate": float(np.mean(ep.landed_in)),
         "median_landing_error": _median(ep.error[landed]),

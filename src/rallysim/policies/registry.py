@@ -57,8 +57,10 @@ def shipped_prefix(name: str, role: str | None = None) -> Path | None:
     simple_name = name.replace("_", "").isalnum()
     if not (simple_name and prefix.with_suffix(".json").is_file()):
         return None
+    if role is None:
+        return prefix
     stage = json.loads(prefix.with_suffix(".json").read_text())["metadata"].get("stage")
-    if role is not None and stage != role:
+    if stage != role:
         raise ValueError(f"the shipped policy {name!r} is a {stage}-level policy, not a "
                          f"{role}-level one")
     return prefix

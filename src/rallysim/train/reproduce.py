@@ -159,7 +159,7 @@ def evaluate_seed(seed: int, out: Path, rallies: int, low_episodes: int,
     """Rally lengths of every method (rallies end at ``cap`` hits), and the low level's
     numbers, for one trained seed."""
     from rallysim.eval.compare import play_methods
-    from rallysim.eval.low_eval import evaluate_return, score_low_level
+    from rallysim.eval.low_eval import goal_following, play_returns, summarise_returns
     from rallysim.eval.rally_eval import rules_for_cap
     from rallysim.policies.mlp import load_policy
     from rallysim.policies.registry import resolve
@@ -172,9 +172,10 @@ def evaluate_seed(seed: int, out: Path, rallies: int, low_episodes: int,
     eval_seed = 1_000_000 + 1000 * seed  # unseen by training (its envs use seed + i)
     lengths = play_methods(high, low, mono, rallies, eval_seed, rules_for_cap(cap), beat,
                            f"seed {seed} ")
-    low_policy = load_policy(low_prefix)
-    low_eval = evaluate_return(low_policy, episodes=low_episodes, seed=eval_seed)
-    scores = score_low_level(low_policy, low_episodes, seed=eval_seed)
+    # one set of episodes for both the task's statistics and goal following
+    played = play_returns(load_policy(low_prefix), episodes=low_episodes, seed=eval_seed)
+    low_eval = summarise_returns(played)
+    scores = goal_following(played, eval_seed, "paper")
     # (null, not NaN, where too few hits leave a value undefined: JSON has no NaN)
     follows = {k: None if np.isnan(scores[k]) else scores[k]
                for k in ("goal_correlation", "median_landing_error_reachable")}
