@@ -30,16 +30,17 @@ from typing import Any
 
 import numpy as np
 
-from rallysim.envs.humanlike_rally_task import HumanLikeRallyTask
-from rallysim.envs.humanlike_return_v0 import HumanLikeReturnVectorEnv, ScriptedSwing
-from rallysim.envs.rally_task import RallyConfig
-from rallysim.envs.turn_task import TurnTask
+from rallysim.core.tasks.humanlike_rally import HumanLikeRallyTask
+from rallysim.core.tasks.rally import RallyConfig
+from rallysim.core.tasks.turns import TurnTask
+from rallysim.envs.humanlike_return_v0 import HumanLikeReturnVectorEnv
 from rallysim.eval.humanlike_eval import evaluate_humanlike, rally_goals
 from rallysim.eval.rally_eval import rally_lengths_turns
 from rallysim.eval.stats import summarise_rallies
 from rallysim.policies.aimed_swing import AimedSwing
 from rallysim.policies.mlp import load_policy
 from rallysim.policies.registry import resolve
+from rallysim.policies.scripted_swing import ScriptedSwing
 
 
 def low_levels(args: argparse.Namespace, episodes: int) -> list[dict[str, Any]]:

@@ -47,7 +47,8 @@ import numpy as np
 
 from rallysim.core.game import PHYSICS_STEPS_PER_DECISION
 from rallysim.core.humanlike import N_ACTIONS, HumanLikeBodies, build_humanlike_world
-from rallysim.envs.humanlike_return_v0 import HumanLikeReturnVectorEnv, ScriptedSwing
+from rallysim.envs.humanlike_return_v0 import HumanLikeReturnVectorEnv
+from rallysim.policies.scripted_swing import ScriptedSwing
 
 try:
     from mujoco import rollout as mj_rollout

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rallysim.envs.rally_task import RallyConfig, RallyTask
+from rallysim.core.tasks.rally import RallyConfig, RallyTask
 from rallysim.policies import ScriptedController
 
 OUT = Path(__file__).resolve().parents[1] / "src/rallysim/assets/data/rally_shots.npy"

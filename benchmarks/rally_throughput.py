@@ -21,7 +21,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from rallysim.envs.rally_task import RallyTask
+from rallysim.core.tasks.rally import RallyTask
 from rallysim.envs.simple_rally_v0 import SimpleRallyTurnVectorEnv, SimpleRallyVectorEnv
 from rallysim.envs.simple_return_v0 import SimpleReturnVectorEnv
 from rallysim.policies import ScriptedController

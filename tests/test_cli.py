@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from rallysim.cli import main
-from rallysim.envs.turn_loop import TurnLoop
+from rallysim.core.tasks.turn_loop import TurnLoop
 from rallysim.render.keyboard import (
     KEY_DOWN,
     KEY_F,

@@ -470,7 +470,7 @@ def test_settings_text_is_read_as_the_field_type():
 
 
 def test_copies_of_bounds_match_their_source():
-    from rallysim.envs.simple_return_v0 import GOALS, INCOMING
+    from rallysim.core.tasks.simple_return import GOALS, INCOMING
 
     assert train_config.INCOMING == INCOMING and train_config.GOALS == GOALS
     assert cli.SEED_MAX == train_config.SEED_MAX

@@ -135,7 +135,7 @@ def test_importing_render_loads_no_env_module_and_envs_load_no_render_module():
     assert "rallysim.render.scene" in loaded
     assert "rallysim.render.record" not in loaded and "rallysim.render.play" not in loaded
     code = ("import sys, rallysim.envs.simple_rally_v0, rallysim.envs.humanlike_rally_v0, "
-            "rallysim.envs.simple_return_v0, rallysim.envs.turn_task; "
+            "rallysim.envs.simple_return_v0, rallysim.core.tasks.turns; "
             "print(sorted(m for m in sys.modules if m.startswith('rallysim.render')))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True).stdout.strip()
@@ -147,7 +147,7 @@ def test_env_view_draws_through_its_factories():
     default, so a view still pickles); no OpenGL is needed with stand-ins."""
     import pickle
 
-    from rallysim.envs.humanlike_rally_task import HumanLikeRallyTask
+    from rallysim.core.tasks.humanlike_rally import HumanLikeRallyTask
     from rallysim.envs.rendering import EnvView, passive_viewer, scene_renderer
 
     made = []

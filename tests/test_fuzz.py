@@ -18,10 +18,10 @@ from golden import Hasher, View, views
 from safetensors.numpy import load_file, save_file
 from test_cli_errors import bad_input_templates
 
+from rallysim.core.tasks.rally import RallyConfig
 from rallysim.envs import humanlike_rally_v0 as hr
 from rallysim.envs import simple_rally_v0 as sr
 from rallysim.envs.humanlike_return_v0 import HumanLikeReturnEnv, HumanLikeReturnVectorEnv
-from rallysim.envs.rally_task import RallyConfig
 from rallysim.envs.simple_return_v0 import SimpleReturnEnv, SimpleReturnVectorEnv
 from rallysim.policies.mlp import load_policy
 from rallysim.policies.registry import pretrained_prefix

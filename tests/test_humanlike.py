@@ -13,11 +13,8 @@ from rallysim.core.humanlike import (
     HumanLikeBodies,
     humanlike_geometry,
 )
-from rallysim.envs.humanlike_return_v0 import (
-    HumanLikeReturnEnv,
-    HumanLikeReturnVectorEnv,
-    ScriptedSwing,
-)
+from rallysim.envs.humanlike_return_v0 import HumanLikeReturnEnv, HumanLikeReturnVectorEnv
+from rallysim.policies.scripted_swing import ScriptedSwing
 from tests.conftest import check_seeded_and_batched
 
 # SPEC §10's joint table, degrees, in JOINTS order

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 from pettingzoo.test import api_test, parallel_api_test
 
+from rallysim.core.tasks.humanlike_rally import HumanLikeRallyTask
+from rallysim.core.tasks.rally import RallyConfig
 from rallysim.envs import humanlike_rally_v0 as hr
-from rallysim.envs.humanlike_rally_task import HumanLikeRallyTask
-from rallysim.envs.rally_task import RallyConfig
 from rallysim.eval.rally_eval import rally_lengths_turns
 from rallysim.players.humanlike import low_observations as low_level_observations
 from rallysim.players.humanlike import targets_from_goals

@@ -7,8 +7,8 @@ import pickle
 import numpy as np
 import pytest
 
-from rallysim.envs.humanlike_rally_task import HumanLikeRallyTask
-from rallysim.envs.rally_task import RallyTask
+from rallysim.core.tasks.humanlike_rally import HumanLikeRallyTask
+from rallysim.core.tasks.rally import RallyTask
 from rallysim.players import HUMANLIKE, PLAYERS, SIMPLE, Layout, get_player
 from rallysim.policies.callables import UniformRandom
 from rallysim.policies.registry import resolve

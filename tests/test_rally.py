@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 from pettingzoo.test import api_test, parallel_api_test, parallel_seed_test, seed_test
 
+from rallysim.core.tasks.rally import RallyConfig, RallyTask
+from rallysim.core.tasks.turns import TurnTask
 from rallysim.envs import simple_rally_v0
-from rallysim.envs.rally_task import RallyConfig, RallyTask
-from rallysim.envs.turn_task import TurnTask
 from rallysim.policies import ScriptedController
 
 

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from rallysim.cli import main
-from rallysim.envs.rally_task import RallyConfig
+from rallysim.core.tasks.rally import RallyConfig
 from rallysim.eval.agents import Direct, Hierarchical, agent
 from rallysim.eval.competitive import Match, play_games
 from rallysim.render.keyboard import (
@@ -314,7 +314,7 @@ def test_play_match_scores_what_the_match_scores(human):
 
 def test_play_match_keys_come_from_the_window(monkeypatch):
     """The viewer's key presses reach the person's player: it walks after KEY_RIGHT."""
-    from rallysim.envs.rally_task import RallyTask
+    from rallysim.core.tasks.rally import RallyTask
     from rallysim.render.play import play_match
 
     moves = []

@@ -14,7 +14,7 @@ pytest.importorskip("stable_baselines3")
 from stable_baselines3.common.env_util import make_vec_env as sb3_make_vec_env
 from stable_baselines3.common.vec_env import DummyVecEnv, VecMonitor, VecNormalize
 
-from rallysim.envs.simple_obs import normalise_depth
+from rallysim.core.simple_obs import normalise_depth
 from rallysim.envs.simple_return_v0 import SimpleReturnVectorEnv
 from rallysim.sb3 import NativeVecEnv, make_vec_env, native_ids
 

@@ -1,5 +1,5 @@
-"""One turn loop (``rallysim.envs.turn_loop``) serves the turn-based views, recorded videos and
-the live viewer: given the same seed and high level they play the same rally, decision for
+"""One turn loop (``rallysim.core.tasks.turn_loop``) serves the turn-based views, recorded videos
+and the live viewer: given the same seed and high level they play the same rally, decision for
 decision, for SIMPLE and HUMAN-LIKE players. None of this needs OpenGL (the recorder gets a
 renderer that draws nothing, the viewer a stand-in window)."""
 
@@ -10,8 +10,8 @@ from typing import Any
 import numpy as np
 import pytest
 
-from rallysim.envs.turn_loop import TurnLoop, rally_core
-from rallysim.envs.turn_task import TurnTask
+from rallysim.core.tasks.turn_loop import TurnLoop, rally_core
+from rallysim.core.tasks.turns import TurnTask
 
 
 class Events:

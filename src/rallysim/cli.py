@@ -275,7 +275,7 @@ def _rally_policies(player: str, low: str, high: str, seed: int,
 def _render(args: argparse.Namespace) -> int:
     """Write an MP4, a GIF and a strip of stills of N episodes (or rallies), or of competitive
     games between two agents (``--players``)."""
-    from rallysim.envs.rally_task import RallyConfig
+    from rallysim.core.tasks.rally import RallyConfig
     from rallysim.render.record import record_low_level, record_rally
 
     if args.players is not None:
@@ -343,7 +343,7 @@ def _match_decisions(args: argparse.Namespace) -> int | None:
 def _render_match(args: argparse.Namespace) -> int:
     """``render --mode competitive --players A B``: games of agent A against agent B, played
     by ``rallysim.eval.competitive.Match``, with their score in the HUD."""
-    from rallysim.envs.rally_task import RallyConfig
+    from rallysim.core.tasks.rally import RallyConfig
     from rallysim.eval.agents import agent
     from rallysim.render.record import record_match
 
@@ -393,7 +393,7 @@ def _low_level_task_policy(player: str, spec: str, seed: int) -> Callable | str:
 def _play(args: argparse.Namespace) -> int:
     """Open MuJoCo's viewer on a live rally; optionally take part by keyboard (a SIMPLE
     player's actions, a HUMAN-LIKE player's goals)."""
-    from rallysim.envs.rally_task import RallyConfig
+    from rallysim.core.tasks.rally import RallyConfig
     from rallysim.envs.rendering import has_display
     from rallysim.render.play import play, play_match
 

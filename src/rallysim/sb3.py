@@ -39,7 +39,7 @@ from typing import Any
 import gymnasium as gym
 from gymnasium.envs.registration import load_env_creator
 
-from rallysim.envs.validation import positive_int, validate_seed
+from rallysim.core.validation import positive_int, validate_seed
 from rallysim.envs.vector_base import NativeVectorEnv
 
 try:

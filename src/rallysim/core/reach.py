@@ -8,7 +8,7 @@ at a known depth, so the planner also gives the depths a serve makes *reachable*
 (``reachable_depths``): the scripted controller aims with it, and the low-level evaluation
 scores goal following over the goals it says can be reached.
 
-Everything is read from the 16-value SIMPLE player observation (``rallysim.envs.simple_obs``),
+Everything is read from the 16-value SIMPLE player observation (``rallysim.core.simple_obs``),
 batched over N players.
 """
 
@@ -21,7 +21,7 @@ import numpy as np
 from rallysim.core.bodies import SimpleBodies, player_geometry
 from rallysim.core.game import PHYSICS_DT
 from rallysim.core.shuttle import GRAVITY, PaperShuttle
-from rallysim.envs.simple_obs import (
+from rallysim.core.simple_obs import (
     PLAYER_OBS,
     POSITION_CENTRE,
     POSITION_SCALE,

@@ -26,8 +26,8 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 
-from rallysim.envs.rally_task import RallyConfig, RallyTask
-from rallysim.envs.validation import positive_int
+from rallysim.core.tasks.rally import RallyConfig, RallyTask
+from rallysim.core.validation import positive_int
 from rallysim.envs.vector_base import SAME_STEP, NativeVectorEnv
 from rallysim.policies.registry import resolve
 from rallysim.policies.types import Agent, LowLevel
@@ -124,7 +124,7 @@ class CompeteTurnVectorEnv(NativeVectorEnv):
         self._advance(units, fresh=True)
 
     def _step_units(self, actions: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
-        from rallysim.envs.validation import validate_actions
+        from rallysim.core.validation import validate_actions
 
         a = validate_actions(actions, (self.num_envs, self.rally.spec.goal.size))
         units = np.setdiff1d(np.arange(self.num_units), self._pending)

@@ -19,7 +19,7 @@ about z), in [-1, 1]:
 
 | index | value |
 |---|---|
-| 0-81 | the low-level observation without the target (``rallysim.envs.humanlike_obs``) |
+| 0-81 | the low-level observation without the target (``rallysim.core.humanlike_obs``) |
 | 82-84 | the opponent's hips position (own frame, scaled like positions) |
 | 85 | "my turn": 1 while this player's racket is armed |
 
@@ -57,7 +57,7 @@ from typing import Any
 
 from pettingzoo.utils.wrappers import OrderEnforcingWrapper
 
-from rallysim.envs.humanlike_rally_task import HumanLikeRallyTask
+from rallysim.core.tasks.humanlike_rally import HumanLikeRallyTask
 from rallysim.envs.simple_rally_v0 import (
     SimpleRallyAECEnv,
     SimpleRallyParallelEnv,

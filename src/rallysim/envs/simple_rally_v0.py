@@ -19,7 +19,7 @@ about z), scaled to [-1, 1]:
 
 | index | value |
 |---|---|
-| 0-15 | the low-level observation without the goal (``rallysim.envs.simple_obs``) |
+| 0-15 | the low-level observation without the goal (``rallysim.core.simple_obs``) |
 | 16-18 | opponent's base position (own frame, scaled like positions) |
 | 19 | "my turn": 1 while this player's racket is armed |
 
@@ -82,16 +82,16 @@ from pettingzoo import AECEnv, ParallelEnv
 from pettingzoo.utils.conversions import parallel_to_aec_wrapper
 from pettingzoo.utils.wrappers import OrderEnforcingWrapper
 
-from rallysim.envs.rally_task import RallyConfig, RallyTask
-from rallysim.envs.rendering import RENDER_MODES, EnvView
-from rallysim.envs.simple_obs import TARGET_DEPTH_RANGE
-from rallysim.envs.turn_task import TurnTask
-from rallysim.envs.validation import (
+from rallysim.core.simple_obs import TARGET_DEPTH_RANGE
+from rallysim.core.tasks.rally import RallyConfig, RallyTask
+from rallysim.core.tasks.turns import TurnTask
+from rallysim.core.validation import (
     positive_int,
     validate_actions,
     validate_goals,
     validate_seed,
 )
+from rallysim.envs.rendering import RENDER_MODES, EnvView
 from rallysim.envs.vector_base import NEXT_STEP, NativeVectorEnv
 from rallysim.policies.types import LowLevel
 

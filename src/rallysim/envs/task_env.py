@@ -15,8 +15,8 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from rallysim.core.validation import validate_actions, validate_seed
 from rallysim.envs.rendering import EnvView
-from rallysim.envs.validation import validate_actions, validate_seed
 
 
 def box_spaces(obs_size: int, action_size: int) -> tuple[spaces.Box, spaces.Box]:

@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 from gymnasium.vector import VectorEnv
 
-from rallysim.envs.validation import check_options, positive_int, validate_seed
+from rallysim.core.validation import check_options, positive_int, validate_seed
 
 try:  # Gymnasium >= 1.1
     from gymnasium.vector import AutoresetMode
@@ -199,7 +199,7 @@ class TaskVectorEnv(NativeVectorEnv):
         return {self.goal_key: self.task.goal.copy()}
 
     def _step_units(self, actions: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
-        from rallysim.envs.validation import validate_actions
+        from rallysim.core.validation import validate_actions
 
         return self.task.step(validate_actions(actions, (self.num_envs, self.action_size)))
 

@@ -6,7 +6,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from rallysim.envs.rally_task import RallyConfig
+from rallysim.core.tasks.rally import RallyConfig
 from rallysim.eval.rally_eval import (
     PAPER_CAP,
     rally_lengths_direct,

@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from rallysim.envs.rally_task import RallyConfig, RallyTask
+from rallysim.core.tasks.rally import RallyConfig, RallyTask
 from rallysim.eval.agents import Agent
 from rallysim.eval.stats import Estimate
 

@@ -61,8 +61,8 @@ def evaluate_humanlike_player(low: str = "pretrained", high: str = "pretrained",
                               shuttle: str = "paper") -> dict[str, Any]:
     """A HUMAN-LIKE low level (``scripted``, ``pretrained`` or a path prefix) on ``episodes``
     serves, and the 3-D rally it plays for ``high``'s goals (``rallies`` x ``seeds``)."""
-    from rallysim.envs.humanlike_rally_task import HumanLikeRallyTask
-    from rallysim.envs.rally_task import RallyConfig
+    from rallysim.core.tasks.humanlike_rally import HumanLikeRallyTask
+    from rallysim.core.tasks.rally import RallyConfig
     from rallysim.eval.rally_eval import rally_lengths_turns
     from rallysim.eval.stats import summarise_rallies
     from rallysim.policies.registry import goal_conditioned, resolve

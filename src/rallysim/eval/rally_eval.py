@@ -12,8 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from rallysim.envs.rally_task import RALLY_OBS_SIZE, RallyConfig, RallyTask
-from rallysim.envs.turn_task import TurnTask
+from rallysim.core.tasks.rally import RALLY_OBS_SIZE, RallyConfig, RallyTask
+from rallysim.core.tasks.turns import TurnTask
 from rallysim.policies.registry import resolve
 from rallysim.policies.types import HighLevel, LowLevel, Policy
 

@@ -11,10 +11,10 @@ from __future__ import annotations
 import numpy as np
 
 from rallysim.core.humanlike import HumanLikeBodies
+from rallysim.core.humanlike_obs import PLAYER_OBS as OBS
+from rallysim.core.humanlike_obs import player_observations as observe
 from rallysim.core.rules import SERVE_DRAWS
 from rallysim.core.serve import HumanLikeServe
-from rallysim.envs.humanlike_obs import PLAYER_OBS as OBS
-from rallysim.envs.humanlike_obs import player_observations as observe
 from rallysim.players.spec import GoalSpec, Layout, PlayerSpec, StartPose
 from rallysim.policies.aimed_swing import AimedSwing
 from rallysim.policies.callables import GoalConditioned

@@ -11,9 +11,9 @@ import numpy as np
 from rallysim.core.bodies import SimpleBodies
 from rallysim.core.game import PHYSICS_DT
 from rallysim.core.serve import MachineServe
-from rallysim.envs.simple_obs import PLAYER_OBS as OBS
-from rallysim.envs.simple_obs import TARGET_DEPTH_RANGE, normalise_depth
-from rallysim.envs.simple_obs import player_observations as observe
+from rallysim.core.simple_obs import PLAYER_OBS as OBS
+from rallysim.core.simple_obs import TARGET_DEPTH_RANGE, normalise_depth
+from rallysim.core.simple_obs import player_observations as observe
 from rallysim.players.spec import GoalSpec, Layout, PlayerSpec, StartPose
 from rallysim.policies.scripted import ScriptedController
 from rallysim.policies.types import Policy

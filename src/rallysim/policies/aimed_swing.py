@@ -41,9 +41,9 @@ import numpy as np
 from rallysim.assets import asset_path
 from rallysim.core.game import PHYSICS_DT, PHYSICS_STEPS_PER_DECISION
 from rallysim.core.humanlike import GROUPS, JOINTS, HumanLikeBodies, humanlike_geometry
+from rallysim.core.humanlike_obs import BODY_OBS_SIZE, BODY_RATE_SCALE, HIPS, SHUTTLE
 from rallysim.core.shuttle import ShuttleState, make_shuttle_model
-from rallysim.envs.humanlike_obs import BODY_OBS_SIZE, BODY_RATE_SCALE, HIPS, SHUTTLE
-from rallysim.envs.simple_obs import POSITION_CENTRE, POSITION_SCALE, SHUTTLE_SPEED_SCALE
+from rallysim.core.simple_obs import POSITION_CENTRE, POSITION_SCALE, SHUTTLE_SPEED_SCALE
 
 TARGET = slice(82, 85)  # the task's target racket velocity / 5 m/s
 TARGET_SCALE = 5.0

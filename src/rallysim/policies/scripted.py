@@ -14,7 +14,7 @@ import numpy as np
 from rallysim.core.bodies import SimpleBodies
 from rallysim.core.game import PHYSICS_DT, PHYSICS_STEPS_PER_DECISION
 from rallysim.core.reach import PlayerState, ShotPlanner
-from rallysim.envs.simple_obs import PLAYER_OBS
+from rallysim.core.simple_obs import PLAYER_OBS
 
 DECISION = PHYSICS_DT * PHYSICS_STEPS_PER_DECISION
 

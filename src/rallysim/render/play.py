@@ -1,9 +1,10 @@
 """``rallysim play``: watch a rally live in MuJoCo's viewer and take part by keyboard.
 
-The rally is played by the turn loop (``rallysim.envs.turn_loop``), as the turn-based views and
-recorded videos play it, for SIMPLE or HUMAN-LIKE players. A person can take over one player:
-a SIMPLE player's actions come from the keys; a HUMAN-LIKE player's goals do (its 15 joints
-are the learned low level's to move). Keys: ``rallysim.render.keyboard``. The other player (and
+The rally is played by the turn loop (``rallysim.core.tasks.turn_loop``), as the turn-based
+views and recorded videos play it, for SIMPLE or HUMAN-LIKE players. A person can take over one
+player: a
+SIMPLE player's actions come from the keys; a HUMAN-LIKE player's goals do (its 15 joints are
+the learned low level's to move). Keys: ``rallysim.render.keyboard``. The other player (and
 both, when nobody is taken over) is driven by the chosen low level with goals from the chosen
 high level.
 
@@ -26,8 +27,8 @@ from typing import Any
 
 import numpy as np
 
-from rallysim.envs.rally_task import RallyConfig
-from rallysim.envs.turn_loop import HighLevel, LowLevel, TurnLoop, rally_core
+from rallysim.core.tasks.rally import RallyConfig
+from rallysim.core.tasks.turn_loop import HighLevel, LowLevel, TurnLoop, rally_core
 from rallysim.eval.agents import Agent
 from rallysim.eval.competitive import Match
 from rallysim.render.keyboard import Keyboard, KeyboardAgent, KeyboardPlayer, keyboard_for

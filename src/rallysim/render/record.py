@@ -3,7 +3,7 @@ HUMAN-LIKE players:
 
 - ``record_low_level``: episodes of the low-level task (``SimpleReturnEnv`` or
   ``HumanLikeReturnEnv``) with the goal's marker and a HUD of the episode and its reward;
-- ``record_rally``: rallies played by the turn loop (``rallysim.envs.turn_loop``) with each
+- ``record_rally``: rallies played by the turn loop (``rallysim.core.tasks.turn_loop``) with each
   player's held goal and a HUD of the rally length and score;
 - ``record_match``: competitive games between two agents (``rallysim.eval.agents``: a
   Monolithic player can meet a hierarchical one) played by ``rallysim.eval.competitive.Match``,
@@ -20,8 +20,8 @@ from typing import Any
 import numpy as np
 
 from rallysim.core.game import PHYSICS_DT, PHYSICS_STEPS_PER_DECISION
-from rallysim.envs.rally_task import RallyConfig, RallyTask
-from rallysim.envs.turn_loop import TurnLoop, rally_core
+from rallysim.core.tasks.rally import RallyConfig, RallyTask
+from rallysim.core.tasks.turn_loop import TurnLoop, rally_core
 from rallysim.eval.agents import Agent
 from rallysim.eval.competitive import Match
 from rallysim.policies.registry import resolve

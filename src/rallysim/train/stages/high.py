@@ -51,7 +51,7 @@ def _simple_env(config: TrainConfig) -> NativeVecEnv:
 
 
 def _simple_lengths(config: TrainConfig, act: Act, rallies: int) -> np.ndarray:
-    from rallysim.envs.rally_task import RallyConfig
+    from rallysim.core.tasks.rally import RallyConfig
     from rallysim.eval.rally_eval import rally_lengths_turns
 
     return rally_lengths_turns(Composed(SIMPLE.goal.from_action, act),
@@ -71,8 +71,8 @@ def _humanlike_env(config: TrainConfig) -> NativeVecEnv:
 
 
 def _humanlike_lengths(config: TrainConfig, act: Act, rallies: int) -> np.ndarray:
-    from rallysim.envs.humanlike_rally_task import HumanLikeRallyTask
-    from rallysim.envs.rally_task import RallyConfig
+    from rallysim.core.tasks.humanlike_rally import HumanLikeRallyTask
+    from rallysim.core.tasks.rally import RallyConfig
     from rallysim.eval.rally_eval import rally_lengths_turns
 
     return rally_lengths_turns(act, resolve(config.low_policy, "rally_low", HUMANLIKE),

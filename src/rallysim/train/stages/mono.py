@@ -32,7 +32,7 @@ class MonoStage(Stage):
 
     def evaluate(self, config: TrainConfig, act: Act, rallies: int | None = None
                  ) -> dict[str, Any]:
-        from rallysim.envs.rally_task import RallyConfig
+        from rallysim.core.tasks.rally import RallyConfig
         from rallysim.eval.rally_eval import rally_lengths_direct
 
         n = rallies or config.eval.episodes

@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from rallysim.envs.rally_task import RallyConfig, RallyTask
+from rallysim.core.tasks.rally import RallyConfig, RallyTask
 from rallysim.policies.registry import resolve
 from rallysim.policies.types import HighLevel, LowLevel
 
@@ -141,7 +141,7 @@ def rally_core(player: str) -> type[RallyTask]:
         return RallyTask
     if player == "humanlike":
         # imported on demand: it brings the HUMAN-LIKE model and the low-level task along
-        from rallysim.envs.humanlike_rally_task import HumanLikeRallyTask
+        from rallysim.core.tasks.humanlike_rally import HumanLikeRallyTask
 
         return HumanLikeRallyTask
     raise ValueError(f"unknown player kind {player!r}; valid: "

@@ -27,7 +27,7 @@ import numpy as np
 from rallysim.core.game import Game
 from rallysim.core.humanlike import HumanLikeBodies
 from rallysim.core.layout import Layout
-from rallysim.envs.simple_obs import POSITION_CENTRE, POSITION_SCALE, SHUTTLE_SPEED_SCALE
+from rallysim.core.simple_obs import POSITION_CENTRE, POSITION_SCALE, SHUTTLE_SPEED_SCALE
 
 BODIES = ("spine", "chest", "upper_arm", "lower_arm", "hand")
 N_BODIES = len(BODIES)

@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from rallysim.envs.rally_task import RallyTask
+from rallysim.core.tasks.rally import RallyTask
 from rallysim.players import HUMANLIKE, PlayerSpec
 
 START_HIPS = (HUMANLIKE.start.base_x[0], HUMANLIKE.start.base_y[0])  # own frame, both players

@@ -22,7 +22,7 @@ import numpy as np
 
 from rallysim.core import rules
 from rallysim.core.game import Game
-from rallysim.envs.simple_obs import normalise_position
+from rallysim.core.simple_obs import normalise_position
 from rallysim.players import SIMPLE, PlayerSpec
 
 RALLY_OBS_SIZE = SIMPLE.rally_obs.size  # the player's 16, opponent base position 3, "my turn" 1
@@ -45,7 +45,7 @@ class RallyConfig:
 
     def __post_init__(self) -> None:
         from rallysim.core.shuttle import check_shuttle_name
-        from rallysim.envs.validation import positive_int
+        from rallysim.core.validation import positive_int
 
         for name in ("max_hits", "max_decisions", "points_to_win", "win_by", "max_points"):
             positive_int(getattr(self, name), name)

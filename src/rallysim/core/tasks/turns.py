@@ -12,8 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from rallysim.envs.rally_task import RallyConfig, RallyTask
-from rallysim.envs.turn_loop import TurnLoop
+from rallysim.core.tasks.rally import RallyConfig, RallyTask
+from rallysim.core.tasks.turn_loop import TurnLoop
 from rallysim.policies.types import LowLevel
 
 

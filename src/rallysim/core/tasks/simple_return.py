@@ -1,0 +1,169 @@
+"""The SIMPLE low-level task over N batched games (SPEC §5-6): goals, rewards, episode ends,
+observations. Its Gymnasium views, and the task's full description, are in
+``rallysim.envs.simple_return_v0``."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from rallysim.core.game import Game
+from rallysim.core.lanes import column
+from rallysim.core.reach import ShotPlanner
+from rallysim.core.serve import FedShots, MachineServe, Serve
+from rallysim.core.simple_obs import (
+    PLAYER_OBS_CENTRE,
+    PLAYER_OBS_SCALE,
+    PLAYER_OBS_SIZE,
+    TARGET_DEPTH_RANGE,
+    raw_observation_lanes,
+)
+from rallysim.core.validation import positive_int, read_options, real_array
+
+OBS_SIZE = PLAYER_OBS_SIZE + 1
+# the observation's affine maps: the player's, then normalise_depth's for the goal
+OBS_CENTRE = (*PLAYER_OBS_CENTRE, 0.5 * sum(TARGET_DEPTH_RANGE))
+OBS_SCALE = (*PLAYER_OBS_SCALE, 0.5 * (TARGET_DEPTH_RANGE[1] - TARGET_DEPTH_RANGE[0]))
+ACTION_SIZE = 3
+MAX_DECISIONS = 1000
+R_HIT = 1.0
+SHAPING_GOOD = 0.001
+SHAPING_BAD = -0.005
+R_DIST_RATE = 0.5
+INCOMING = ("serve", "mixed", "rally")
+RALLY_SHOT_SHARE = {"mixed": 0.5, "rally": 1.0}  # games served a recorded rally shot
+LANDING_KEYS = ("landing_point", "landing_depth", "landing_error", "landed_in")
+GOALS = ("uniform", "reachable")
+
+
+class ReturnTask:
+    """The low-level task over N batched games: goals, rewards, ends, observations."""
+
+    def __init__(self, num_envs: int, shuttle: str = "paper", seed: int | None = None,
+                 target_depth_range: tuple[float, float] = TARGET_DEPTH_RANGE,
+                 max_decisions: int = MAX_DECISIONS, incoming: str = "serve",
+                 keep_bodies: bool = False, goals: str = "uniform") -> None:
+        if goals not in GOALS:
+            raise ValueError(f"unknown goals {goals!r}; valid: {', '.join(map(repr, GOALS))}")
+        self.goals = goals
+        self._planner = ShotPlanner() if goals == "reachable" else None
+        if incoming not in INCOMING:
+            raise ValueError(f"unknown incoming {incoming!r}; valid: "
+                             f"{', '.join(map(repr, INCOMING))}")
+        self.incoming = incoming
+        if not isinstance(keep_bodies, bool | np.bool_):
+            raise ValueError(f"keep_bodies must be True or False, got {keep_bodies!r}")
+        self.keep_bodies = bool(keep_bodies)
+        self._started = np.zeros(num_envs, bool)
+        # anything but two real numbers fails the range check below
+        lo, hi = (real_array(target_depth_range, "target_depth_range", (2,))
+                  if np.shape(target_depth_range) == (2,) else (np.nan, np.nan))
+        if not TARGET_DEPTH_RANGE[0] <= lo <= hi <= TARGET_DEPTH_RANGE[1]:
+            raise ValueError(f"target_depth_range must lie within {TARGET_DEPTH_RANGE}, got "
+                             f"{target_depth_range}")
+        positive_int(max_decisions, "max_decisions")
+        self.n = num_envs
+        self.game = Game(num_envs, 1, shuttle=shuttle, seed=seed, shaping=True,
+                         serve=incoming_serve(incoming))
+        self.depth_range = (lo, hi)
+        self.max_decisions = max_decisions
+        self.goal = np.zeros(num_envs)
+        self.elapsed = np.zeros(num_envs, np.int64)
+
+    def reset(self, envs: np.ndarray, options: dict[str, Any] | None = None) -> None:
+        envs = np.asarray(envs, np.int64)
+        b, limit = self.game.bodies, self.game.bodies.limit
+        given = self.reset_options(options, len(envs))
+        # The same draws whatever the options say, so an option changes only what it sets:
+        # the start here, the serve's (the game's serve strategy), then the goal.
+        rngs = [self.game.rngs[e] for e in envs]
+        base_x = given.get("base_x", np.array([r.uniform(*b.base_range) for r in rngs]))
+        theta = given.get("arm_angle", np.array([r.uniform(-limit, limit) for r in rngs]))
+        # the original builds: robots stay where the last episode left them
+        keep = self._started[envs] & (self.keep_bodies and not given)
+        carry = envs[keep]
+        base_x[keep], theta[keep] = b.base_x[carry, 0], b.theta[carry, 0]
+        omega = b.omega[carry, 0].copy()
+        self.game.reset(envs, receiver=0, base_x=base_x[:, None], theta=theta[:, None])
+        b.omega[carry, 0] = omega
+        self._started[envs] = True
+        # (drawn even when the option gives the goal, so that the stream does not shift)
+        if self._planner is None:
+            drawn = np.array([r.uniform(*self.depth_range) for r in rngs])
+        else:
+            u = np.array([r.uniform() for r in rngs])
+            drawn = None if "target_depth" in given else self._reachable_goals(envs, u)
+        self.goal[envs] = given.get("target_depth", drawn)
+        self.elapsed[envs] = 0
+
+    def _reachable_goals(self, envs: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """Goals at the quantiles ``u`` of the depths these serves make reachable
+        (``ShotPlanner.reachable_depths``) within the goal range; a serve that reaches none
+        of them gets the nearest end of the range, one that reaches no depth at all the
+        whole range."""
+        lo, hi = self._planner.reachable_depths(self.observe()[envs, :PLAYER_OBS_SIZE])
+        none = np.isnan(lo)
+        lo = np.clip(np.where(none, self.depth_range[0], lo), *self.depth_range)
+        hi = np.clip(np.where(none, self.depth_range[1], hi), *self.depth_range)
+        return lo + u * (hi - lo)
+
+    def reset_options(self, options: dict[str, Any] | None, k: int) -> dict[str, np.ndarray]:
+        """The given reset options for ``k`` environments, checked (``ValueError``)."""
+        b = self.game.bodies
+        return read_options(options, {"target_depth": ((k,), TARGET_DEPTH_RANGE),
+                                      "base_x": ((k,), b.base_range),
+                                      "arm_angle": ((k,), (-b.limit, b.limit))})
+
+    def observe(self) -> np.ndarray:
+        game = self.game
+        lanes = [*raw_observation_lanes(game), game.ops.read(self.goal[:, None])]
+        return game.ops.observations(lanes, (self.n, 1), OBS_CENTRE, OBS_SCALE)[:, 0]
+
+    def step(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
+        """Advance all N games by one decision with validated, clipped ``actions`` (N, 3):
+        rewards, terminated, truncated and info, as (N,) arrays."""
+        reward, terminated, truncated, values = self.outcome(actions)
+        info = {key: column(value, self.n) for key, value in values.items()}
+        # Gymnasium's vector convention: "_key" marks the environments where "key" applies.
+        info["_racket_speed"] = info["hit"].copy()
+        for key in LANDING_KEYS:
+            info["_" + key] = info["landed"].copy()
+        return (column(reward, self.n), column(terminated, self.n), column(truncated, self.n),
+                info)
+
+    def outcome(self, actions: np.ndarray) -> tuple[Any, Any, Any, dict[str, Any]]:
+        """``step``'s values as lanes of ``game.ops`` (rallysim.core.lanes: Python values for
+        one environment), not yet copied into arrays."""
+        game, ops = self.game, self.game.ops
+        read, read0 = ops.read, ops.read0
+        ev = game.step(actions[:, None, :])
+        self.elapsed += 1
+        hit, landed, goal = read0(ev.hit), read(ev.landed), read(self.goal)
+        reward = SHAPING_GOOD * read0(ev.approach_good) + SHAPING_BAD * read0(ev.approach_bad)
+        reward = reward + R_HIT * hit
+        depth = error = np.nan
+        landed_in = False
+        if ops.any(landed):
+            land_x = read(ev.land_point[:, 0])  # player 0's own frame is the world frame
+            depth = ops.where(landed, land_x, np.nan)
+            error = ops.where(landed, abs(land_x - goal), np.nan)
+            landed_in = landed & (read(ev.land_side) == 1) & read(ev.land_in)
+            scored = landed_in & read0(game.has_hit) & ops.logical_not(read(game.net_touched))
+            closeness = ops.exp(-R_DIST_RATE * ops.where(landed, error, 0.0))
+            reward = reward + ops.where(scored, closeness, 0.0)
+        # (without a landing there is nothing to score: adding 0.0 would not change the
+        # reward, which never is -0.0)
+        truncated = ops.logical_not(landed) & (read(self.elapsed) >= self.max_decisions)
+        info = {"hit": hit, "racket_speed": read0(ev.hit_speed), "net_touch": read(ev.net_touch),
+                "landed": landed, "landing_point": ev.land_point, "landing_depth": depth,
+                "landing_error": error, "landed_in": landed_in, "target_depth": goal}
+        return reward, landed, truncated, info
+
+
+def incoming_serve(incoming: str) -> Serve:
+    """What comes over (``incoming``): the machine serve (``"serve"``), or a recorded rally
+    shot in its place always (``"rally"``) or half the time (``"mixed"``)."""
+    if incoming == "serve":
+        return MachineServe()
+    return FedShots(RALLY_SHOT_SHARE[incoming])
