@@ -30,13 +30,13 @@ from typing import Any
 
 import numpy as np
 
-from rallysim.core.tasks.humanlike_rally import HumanLikeRallyTask
 from rallysim.core.tasks.rally import RallyConfig
 from rallysim.core.tasks.turns import TurnTask
 from rallysim.envs.humanlike_return_v0 import HumanLikeReturnVectorEnv
 from rallysim.eval.humanlike_eval import evaluate_humanlike, rally_goals
 from rallysim.eval.rally_eval import rally_lengths_turns
 from rallysim.eval.stats import summarise_rallies
+from rallysim.players import HUMANLIKE
 from rallysim.policies.aimed_swing import AimedSwing
 from rallysim.policies.mlp import load_policy
 from rallysim.policies.registry import resolve
@@ -68,7 +68,7 @@ def high_levels(args: argparse.Namespace, rallies: int, seeds: int) -> list[dict
     rows = []
     for name, make in named.items():
         groups = [rally_lengths_turns(make(s), low, rallies, seed=1000 * s, config=RallyConfig(),
-                                      rally=HumanLikeRallyTask) for s in range(seeds)]
+                                      player=HUMANLIKE) for s in range(seeds)]
         summary = summarise_rallies(groups)
         rows.append({"high_level": name, "rallies": summary.n_rallies,
                      "mean": summary.mean.value, "low": summary.mean.low,
@@ -77,7 +77,7 @@ def high_levels(args: argparse.Namespace, rallies: int, seeds: int) -> list[dict
 
 
 def speed(n: int, seconds: float) -> dict[str, float]:
-    turns = TurnTask(n, "scripted", RallyConfig(), seed=0, rally=HumanLikeRallyTask)
+    turns = TurnTask(n, "scripted", RallyConfig(), seed=0, player=HUMANLIKE)
     turns.reset(np.arange(n))
     t0, decisions = time.perf_counter(), 0
     while time.perf_counter() - t0 < seconds:

@@ -147,8 +147,9 @@ def test_env_view_draws_through_its_factories():
     default, so a view still pickles); no OpenGL is needed with stand-ins."""
     import pickle
 
-    from rallysim.core.tasks.humanlike_rally import HumanLikeRallyTask
+    from rallysim.core.tasks.rally import RallyTask
     from rallysim.envs.rendering import EnvView, passive_viewer, scene_renderer
+    from rallysim.players import HUMANLIKE
 
     made = []
 
@@ -165,7 +166,7 @@ def test_env_view_draws_through_its_factories():
         return Stub()
 
     view = EnvView("rgb_array", 2, 64, 48, player="humanlike", renderer_factory=factory)
-    task = HumanLikeRallyTask(1)
+    task = RallyTask(1, spec=HUMANLIKE)
     assert view.render(task.game, 0).shape == (48, 64, 3)
     view.render(task.game, 0)
     view.close()

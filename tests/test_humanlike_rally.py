@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 from pettingzoo.test import api_test, parallel_api_test
 
-from rallysim.core.tasks.humanlike_rally import HumanLikeRallyTask
-from rallysim.core.tasks.rally import RallyConfig
+from rallysim.core.tasks.rally import RallyConfig, RallyTask
 from rallysim.envs import humanlike_rally_v0 as hr
 from rallysim.eval.rally_eval import rally_lengths_turns
+from rallysim.players import HUMANLIKE
 from rallysim.players.humanlike import low_observations as low_level_observations
 from rallysim.players.humanlike import targets_from_goals
 
@@ -38,7 +38,7 @@ def test_spaces_and_pettingzoo_api():
 
 
 def test_serve_and_start_mirror_for_player_one():
-    task = HumanLikeRallyTask(2, seed=0)
+    task = RallyTask(2, seed=0, spec=HUMANLIKE)
     task.reset(np.arange(2))
     hips = task.game.bodies.hips_position()
     assert np.allclose(hips[..., :2], [-2.7, 0.0])
@@ -48,23 +48,24 @@ def test_serve_and_start_mirror_for_player_one():
     assert np.allclose(opp[..., 0], 2.7, atol=1e-5)
     assert obs[:, 0, 85].tolist() == [1.0, 1.0] and obs[:, 1, 85].tolist() == [0.0, 0.0]
     # a serve to player 1 is player 0's serve turned 180 degrees about z
-    a, b = HumanLikeRallyTask(1, seed=4), HumanLikeRallyTask(1, seed=4)
-    a._serve(np.array([0]), np.array([0]))
-    b._serve(np.array([0]), np.array([1]))
+    a, b = RallyTask(1, seed=4, spec=HUMANLIKE), RallyTask(1, seed=4, spec=HUMANLIKE)
+    a.reset(np.array([0]))  # the first serve goes to player 0 ...
+    b.server[:] = 0  # ... and b's, served by player 0, to player 1
+    b._start_rally(np.array([0]))
     assert np.allclose(b.game.shuttle.pos, a.game.shuttle.pos * [-1, -1, 1])
     assert np.allclose(b.game.shuttle.vel, a.game.shuttle.vel * [-1, -1, 1])
 
 
 def test_centre_goal_rallies_to_the_cap_and_random_goals_do_not():
     centre = rally_lengths_turns(lambda o: np.zeros((len(o), 3)), "scripted", 8, seed=1,
-                                 rally=HumanLikeRallyTask)
+                                 player=HUMANLIKE)
     assert centre.tolist() == [50] * 8  # issue 5's target: a mean rally >= 10
     rng = np.random.default_rng(0)
     rand = rally_lengths_turns(lambda o: rng.uniform(-1, 1, (len(o), 3)), "scripted", 32,
-                               seed=1, rally=HumanLikeRallyTask)
+                               seed=1, player=HUMANLIKE)
     assert 1 <= rand.mean() < 10
     again = rally_lengths_turns(lambda o: np.zeros((len(o), 3)), "scripted", 8, seed=1,
-                                rally=HumanLikeRallyTask)
+                                player=HUMANLIKE)
     assert again.tolist() == centre.tolist()
 
 
@@ -99,4 +100,4 @@ def test_vector_views_and_bad_goals():
     _, reward, _, _, _ = slots.step(np.zeros((4, 15)))
     assert reward.shape == (4,)
     cfg = RallyConfig(mode="competitive")
-    assert HumanLikeRallyTask(1, cfg).competitive
+    assert RallyTask(1, cfg, spec=HUMANLIKE).competitive

@@ -7,7 +7,6 @@ import pickle
 import numpy as np
 import pytest
 
-from rallysim.core.tasks.humanlike_rally import HumanLikeRallyTask
 from rallysim.core.tasks.rally import RallyTask
 from rallysim.players import HUMANLIKE, PLAYERS, SIMPLE, Layout, get_player
 from rallysim.policies.callables import UniformRandom
@@ -30,11 +29,14 @@ def test_layouts_name_every_slice_once():
 
 
 def test_tasks_take_their_sizes_and_goals_from_the_spec():
-    for task, spec in ((RallyTask, SIMPLE), (HumanLikeRallyTask, HUMANLIKE)):
+    simple, humanlike = RallyTask(1), RallyTask(1, spec=HUMANLIKE)
+    for task, spec in ((simple, SIMPLE), (humanlike, HUMANLIKE)):
         assert task.spec is spec and task.player == spec.name
-        assert (task.obs_size, task.action_size, task.goal_size) == (
-            spec.rally_obs.size, spec.action.size, spec.goal.size)
-    assert RallyTask.default_goal == 4.0 and HumanLikeRallyTask.default_goal == (0.0, 0.0, 0.0)
+        assert (task.obs_size, task.action_size) == (spec.rally_obs.size, spec.action.size)
+        assert task.observe().shape == (1, 2, spec.rally_obs.size)
+        assert type(task.game.bodies) is type(spec.make_bodies(1, 2))
+    assert simple.default_goal == 4.0 and humanlike.default_goal == (0.0, 0.0, 0.0)
+    assert (simple.obs_size, humanlike.obs_size) == (20, 86)
 
 
 def test_simple_goal_mapping_is_the_originals_and_keeps_the_dtype():

@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from rallysim.core.tasks.turn_loop import TurnLoop, rally_core
+from rallysim.core.tasks.turn_loop import TurnLoop
 from rallysim.core.tasks.turns import TurnTask
 
 
@@ -150,7 +150,7 @@ def test_the_seeded_simple_rally_is_the_one_videos_always_showed(monkeypatch):
 def test_turn_task_goals_are_the_loops():
     """``TurnTask`` keeps no goals of its own: a view's goals are the loop's arrays, so every
     driver reads and draws the same ones."""
-    turns = TurnTask(3, "scripted", seed=0, rally=rally_core("humanlike"))
+    turns = TurnTask(3, "scripted", seed=0, player="humanlike")
     turns.reset(np.arange(3))
     assert turns.goals is turns.loop.goals and turns.goals.shape == (3, 2, 3)
     assert turns.turn_player is turns.loop.turn_player
@@ -158,5 +158,5 @@ def test_turn_task_goals_are_the_loops():
     assert turns.loop.goals[0, 0].tolist() == [0.5, -0.5, 1.0]
     with pytest.raises(ValueError, match="finite"):
         turns.step(np.full(3, np.nan))
-    with pytest.raises(ValueError, match="unknown player kind"):
-        rally_core("robot")
+    with pytest.raises(ValueError, match="unknown player kind 'robot'; valid: 'humanlike'"):
+        TurnLoop.build("robot", 1, "scripted")

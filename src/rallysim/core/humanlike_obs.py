@@ -68,3 +68,11 @@ def player_observations(game: Game) -> np.ndarray:
         positions -= POSITION_CENTRE  # normalise_position, in place
         positions /= POSITION_SCALE
     return out
+
+
+def opponent_positions(game: Game) -> np.ndarray:
+    """(N, 2, 3) each player's opponent's hips position in the player's own frame."""
+    hips = game.bodies.hips_position()  # (N, 2, 3), each in its own frame
+    opp = hips[:, ::-1].copy()
+    opp[..., :2] *= -1.0  # the opponent's own frame turned 180 degrees about z
+    return opp

@@ -69,3 +69,13 @@ def raw_observation_lanes(game: Game) -> list:
             b.face_offset * omega * c, 0.0, -b.face_offset * omega * s,  # face centre velocity
             # the shuttle: the own frame turns x and y (fwd = -1 for player 1), not z
             fwd * px, fwd * py, pz, fwd * vx, fwd * vy, vz]
+
+
+def opponent_positions(game: Game) -> np.ndarray:
+    """(N, 2, 3) each player's opponent's base position in the player's own frame: x and z of
+    the opponent's base (its own-frame x turned 180 degrees about z), y 0."""
+    b = game.bodies
+    opp = np.zeros((game.n_envs, 2, 3))
+    opp[..., 0] = -b.base_x[:, ::-1]
+    opp[..., 2] = b.base_z
+    return opp

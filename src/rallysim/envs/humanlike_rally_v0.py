@@ -1,7 +1,7 @@
 """``humanlike_rally_v0``: two HUMAN-LIKE players rally in 3-D, the rally the paper never reached.
 
-The same views as ``simple_rally_v0``, over ``HumanLikeRallyTask`` (the same rulebook with the
-HUMAN-LIKE bodies of SPEC §10):
+The same views as ``simple_rally_v0``, over ``RallyTask`` with the HUMAN-LIKE player spec (the
+same rulebook with the HUMAN-LIKE bodies of SPEC §10):
 
 | view | what |
 |---|---|
@@ -57,7 +57,6 @@ from typing import Any
 
 from pettingzoo.utils.wrappers import OrderEnforcingWrapper
 
-from rallysim.core.tasks.humanlike_rally import HumanLikeRallyTask
 from rallysim.envs.simple_rally_v0 import (
     SimpleRallyAECEnv,
     SimpleRallyParallelEnv,
@@ -66,20 +65,21 @@ from rallysim.envs.simple_rally_v0 import (
     SimpleRallyTurnVectorEnv,
     SimpleRallyVectorEnv,
 )
+from rallysim.players import HUMANLIKE
 from rallysim.policies.types import LowLevel
 
 __all__ = ["HumanLikeRallyAECEnv", "HumanLikeRallyParallelEnv", "HumanLikeRallyTurnAECEnv",
            "HumanLikeRallyTurnEnv", "HumanLikeRallyTurnVectorEnv", "HumanLikeRallyVectorEnv",
            "env", "parallel_env", "raw_env", "turn_env"]
 
-# The SIMPLE views are written over the rally core's hooks; these name the HUMAN-LIKE core.
+# The SIMPLE views read their player kind's spec; these name HUMAN-LIKE's.
 
 
 class HumanLikeRallyParallelEnv(SimpleRallyParallelEnv):
     """One HUMAN-LIKE rally, both players acting every decision."""
 
     metadata = {**SimpleRallyParallelEnv.metadata, "name": "humanlike_rally_v0"}
-    rally = HumanLikeRallyTask
+    spec = HUMANLIKE
 
 
 class HumanLikeRallyAECEnv(SimpleRallyAECEnv):
@@ -95,20 +95,20 @@ raw_env = HumanLikeRallyAECEnv
 class HumanLikeRallyVectorEnv(SimpleRallyVectorEnv):
     """N HUMAN-LIKE rallies as 2N Gymnasium slots (slot 2e + p: player p of rally e)."""
 
-    rally = HumanLikeRallyTask
+    spec = HUMANLIKE
 
 
 class HumanLikeRallyTurnAECEnv(SimpleRallyTurnAECEnv):
     """The turn-based HUMAN-LIKE rally as a PettingZoo ``AECEnv``."""
 
     metadata = {**SimpleRallyTurnAECEnv.metadata, "name": "humanlike_rally_turn_v0"}
-    rally = HumanLikeRallyTask
+    spec = HUMANLIKE
 
 
 class HumanLikeRallyTurnVectorEnv(SimpleRallyTurnVectorEnv):
     """N cooperative turn-based HUMAN-LIKE rallies, single-agent: the action is the goal."""
 
-    rally = HumanLikeRallyTask
+    spec = HUMANLIKE
 
 
 class HumanLikeRallyTurnEnv(SimpleRallyTurnEnv):

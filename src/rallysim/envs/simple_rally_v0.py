@@ -93,6 +93,7 @@ from rallysim.core.validation import (
 )
 from rallysim.envs.rendering import RENDER_MODES, EnvView
 from rallysim.envs.vector_base import NEXT_STEP, NativeVectorEnv
+from rallysim.players import SIMPLE, PlayerSpec
 from rallysim.policies.types import LowLevel
 
 AGENTS = ("player_0", "player_1")
@@ -101,18 +102,18 @@ PER_PLAYER_INFO = ("hit", "racket_speed", "hit_point")
 SCORE_INFO = ("score",)
 
 
-def _obs_space(rally: type[RallyTask] = RallyTask) -> spaces.Box:
-    return spaces.Box(-1.0, 1.0, (rally.obs_size,), np.float32)
+def _obs_space(spec: PlayerSpec = SIMPLE) -> spaces.Box:
+    return spaces.Box(-1.0, 1.0, (spec.rally_obs.size,), np.float32)
 
 
-def _act_space(rally: type[RallyTask] = RallyTask) -> spaces.Box:
-    return spaces.Box(-1.0, 1.0, (rally.action_size,), np.float32)
+def _act_space(spec: PlayerSpec = SIMPLE) -> spaces.Box:
+    return spaces.Box(-1.0, 1.0, (spec.action.size,), np.float32)
 
 
-def _goal_space(rally: type[RallyTask] = RallyTask) -> spaces.Box:
-    if rally.goal_size == 1:
+def _goal_space(spec: PlayerSpec = SIMPLE) -> spaces.Box:
+    if spec.goal.size == 1:
         return spaces.Box(*TARGET_DEPTH_RANGE, (1,), np.float32)
-    return spaces.Box(-1.0, 1.0, (rally.goal_size,), np.float32)
+    return spaces.Box(-1.0, 1.0, (spec.goal.size,), np.float32)
 
 
 def rally_config(view: object, config: dict[str, Any]) -> RallyConfig:
@@ -128,7 +129,7 @@ def render_rally(view: EnvView, task: RallyTask, env: int,
                  goals: np.ndarray | None = None) -> np.ndarray | None:
     score = task.score[env]
     hud = f"rally {int(task.game.hits[env])}   score {score[0]}-{score[1]}"
-    if task.goal_size != 1:  # the landing-depth markers are SIMPLE's
+    if task.spec.goal.size != 1:  # the landing-depth markers are SIMPLE's
         goals = None
     return view.render(task.game, env, None if goals is None else list(goals), hud)
 
@@ -195,19 +196,19 @@ class SimpleRallyParallelEnv(ParallelEnv):
     """One rally, both players acting every decision. See the module docstring."""
 
     metadata = {"name": "simple_rally_v0", "render_modes": RENDER_MODES, "render_fps": 10}
-    rally: type[RallyTask] = RallyTask
+    spec: PlayerSpec = SIMPLE
 
     def __init__(self, render_mode: str | None = None, max_cycles: int | None = None,
                  **config: Any) -> None:
         self.max_cycles = _check_max_cycles(max_cycles)
-        self._view = EnvView(render_mode, n_players=2, player=self.rally.player)
-        self.task = self.rally(1, rally_config(self, config))
+        self._view = EnvView(render_mode, n_players=2, player=self.spec.name)
+        self.task = RallyTask(1, rally_config(self, config), spec=self.spec)
         self.possible_agents = list(AGENTS)
         self.agents: list[str] = []
         self.render_mode = render_mode
-        self.observation_spaces = {a: _obs_space(self.rally) for a in AGENTS}
-        self.action_spaces = {a: _act_space(self.rally) for a in AGENTS}
-        self.state_space = _obs_space(self.rally)  # state() is player 0's observation
+        self.observation_spaces = {a: _obs_space(self.spec) for a in AGENTS}
+        self.action_spaces = {a: _act_space(self.spec) for a in AGENTS}
+        self.state_space = _obs_space(self.spec)  # state() is player 0's observation
         self.cycles = 0  # steps since reset, for max_cycles
 
     def observation_space(self, agent: str) -> spaces.Box:
@@ -238,7 +239,7 @@ class SimpleRallyParallelEnv(ParallelEnv):
 
     def step(self, actions: dict[str, Any]):
         _check_agent_actions(actions, self.agents)
-        size = self.rally.action_size
+        size = self.spec.action.size
         a = np.stack([validate_actions(actions[agent], (size,)) for agent in AGENTS])
         rewards, term, trunc, info = self.task.step(a[None])
         self.cycles += 1
@@ -289,7 +290,7 @@ class SimpleRallyAECEnv(parallel_to_aec_wrapper):
         if not (self.terminations[agent] or self.truncations[agent]):
             # refused at the agent's own step; the conversion would only pass it on to the
             # parallel env's checks at the last agent's step
-            validate_actions(action, (self.parallel.rally.action_size,))
+            validate_actions(action, (self.parallel.spec.action.size,))
         super().step(action)
 
 
@@ -310,21 +311,21 @@ class SimpleRallyVectorEnv(NativeVectorEnv):
 
     metadata = {"render_modes": RENDER_MODES, "render_fps": 10, "autoreset_mode": NEXT_STEP}
     slots_per_unit = 2
-    rally: type[RallyTask] = RallyTask
+    spec: PlayerSpec = SIMPLE
 
     def __init__(self, num_rallies: int = 1, autoreset_mode: str = "next_step",
                  seed: int | None = None, render_mode: str | None = None,
                  **config: Any) -> None:
         self._setup(num_rallies, autoreset_mode)
         self.render_mode = render_mode
-        self._view = EnvView(render_mode, n_players=2, player=self.rally.player)
+        self._view = EnvView(render_mode, n_players=2, player=self.spec.name)
         self._views = [self._view]
-        self.task = self.rally(self.num_units, rally_config(self, config), seed)
-        self.single_observation_space = _obs_space(self.rally)
-        self.single_action_space = _act_space(self.rally)
-        self.observation_space = spaces.Box(-1.0, 1.0, (self.num_envs, self.rally.obs_size),
+        self.task = RallyTask(self.num_units, rally_config(self, config), seed, self.spec)
+        self.single_observation_space = _obs_space(self.spec)
+        self.single_action_space = _act_space(self.spec)
+        self.observation_space = spaces.Box(-1.0, 1.0, (self.num_envs, self.spec.rally_obs.size),
                                             np.float32)
-        self.action_space = spaces.Box(-1.0, 1.0, (self.num_envs, self.rally.action_size),
+        self.action_space = spaces.Box(-1.0, 1.0, (self.num_envs, self.spec.action.size),
                                        np.float32)
 
     def _seed_units(self, seeds: list[int]) -> None:
@@ -334,13 +335,13 @@ class SimpleRallyVectorEnv(NativeVectorEnv):
         self.task.reset(units)
 
     def _step_units(self, actions):
-        size = self.rally.action_size
+        size = self.spec.action.size
         a = validate_actions(actions, (self.num_envs, size))
         rewards, term, trunc, info = self.task.step(a.reshape(self.num_units, 2, size))
         return rewards.reshape(-1), term, trunc, _slot_info(info)
 
     def _observe(self) -> np.ndarray:
-        return self.task.observe().reshape(self.num_envs, self.rally.obs_size)
+        return self.task.observe().reshape(self.num_envs, self.spec.rally_obs.size)
 
     def render(self) -> tuple[np.ndarray, ...] | None:
         """A frame of rally 0 (``"rgb_array"``)."""
@@ -356,20 +357,20 @@ class SimpleRallyTurnAECEnv(AECEnv):
 
     metadata = {"name": "simple_rally_turn_v0", "render_modes": RENDER_MODES,
                 "is_parallelizable": False, "render_fps": 1}
-    rally: type[RallyTask] = RallyTask
+    spec: PlayerSpec = SIMPLE
 
     def __init__(self, low_level: LowLevel | str = "scripted", render_mode: str | None = None,
                  max_cycles: int | None = None, **config: Any) -> None:
         super().__init__()
         self.max_cycles = _check_max_cycles(max_cycles)
-        self._view = EnvView(render_mode, n_players=2, player=self.rally.player)
-        self.turns = TurnTask(1, low_level, rally_config(self, config), rally=self.rally)
+        self._view = EnvView(render_mode, n_players=2, player=self.spec.name)
+        self.turns = TurnTask(1, low_level, rally_config(self, config), player=self.spec)
         self.possible_agents = list(AGENTS)
         self.agents = []
         self.render_mode = render_mode
-        self.observation_spaces = {a: _obs_space(self.rally) for a in AGENTS}
-        self.action_spaces = {a: _goal_space(self.rally) for a in AGENTS}
-        self.state_space = _obs_space(self.rally)  # state() is player 0's observation
+        self.observation_spaces = {a: _obs_space(self.spec) for a in AGENTS}
+        self.action_spaces = {a: _goal_space(self.spec) for a in AGENTS}
+        self.state_space = _obs_space(self.spec)  # state() is player 0's observation
         self.cycles = 0  # turns played since reset, for max_cycles
 
     def observation_space(self, agent: str) -> spaces.Box:
@@ -412,7 +413,7 @@ class SimpleRallyTurnAECEnv(AECEnv):
         if self.terminations[agent] or self.truncations[agent]:
             self._was_dead_step(action)
             return
-        goal = validate_goals(action, (self.rally.goal_size,))
+        goal = validate_goals(action, (self.spec.goal.size,))
         self._cumulative_rewards[agent] = 0.0
         out = self.turns.step(goal)
         self.cycles += 1
@@ -445,7 +446,7 @@ class SimpleRallyTurnVectorEnv(NativeVectorEnv):
     span's cooperative reward; ``info["decisions"]`` is the span's length."""
 
     metadata = {"render_modes": RENDER_MODES, "render_fps": 1, "autoreset_mode": NEXT_STEP}
-    rally: type[RallyTask] = RallyTask
+    spec: PlayerSpec = SIMPLE
 
     def __init__(self, num_envs: int = 1, low_level: LowLevel | str = "scripted",
                  autoreset_mode: str = "next_step", seed: int | None = None,
@@ -456,16 +457,16 @@ class SimpleRallyTurnVectorEnv(NativeVectorEnv):
                              "the competitive game")
         self._setup(num_envs, autoreset_mode)
         self.render_mode = render_mode
-        self._view = EnvView(render_mode, n_players=2, player=self.rally.player)
+        self._view = EnvView(render_mode, n_players=2, player=self.spec.name)
         self._views = [self._view]
-        self.turns = TurnTask(self.num_units, low_level, cfg, seed, rally=self.rally)
+        self.turns = TurnTask(self.num_units, low_level, cfg, seed, player=self.spec)
         self.decisions_simulated = 0  # low-level decisions run inside all turns so far
-        goal = _goal_space(self.rally)
-        self.single_observation_space, self.single_action_space = _obs_space(self.rally), goal
-        self.observation_space = spaces.Box(-1.0, 1.0, (self.num_envs, self.rally.obs_size),
+        goal = _goal_space(self.spec)
+        self.single_observation_space, self.single_action_space = _obs_space(self.spec), goal
+        self.observation_space = spaces.Box(-1.0, 1.0, (self.num_envs, self.spec.rally_obs.size),
                                             np.float32)
         self.action_space = spaces.Box(goal.low[0], goal.high[0],
-                                       (self.num_envs, self.rally.goal_size), np.float32)
+                                       (self.num_envs, self.spec.goal.size), np.float32)
 
     def _seed_units(self, seeds: list[int]) -> None:
         self.turns.seed(seeds)
@@ -474,7 +475,7 @@ class SimpleRallyTurnVectorEnv(NativeVectorEnv):
         self.turns.reset(units)
 
     def _step_units(self, actions):
-        size = self.rally.goal_size
+        size = self.spec.goal.size
         goals = validate_goals(actions, (self.num_envs, size))
         if size == 1:
             goals = goals[:, 0]
@@ -482,7 +483,7 @@ class SimpleRallyTurnVectorEnv(NativeVectorEnv):
         playing = np.setdiff1d(np.arange(self.num_units), self._pending)
         if len(self._pending):
             goals = goals.copy()
-            goals[self._pending] = self.rally.default_goal
+            goals[self._pending] = self.spec.goal.default
         out = self.turns.step(goals, playing)
         acted = out["acted"]
         self.decisions_simulated += int(out["decisions"].sum())
@@ -513,8 +514,8 @@ class SimpleRallyTurnEnv(gym.Env):
                  **config: Any) -> None:
         self.render_mode = render_mode
         self.vec = self.vector_env(1, low_level=low_level, render_mode=render_mode, **config)
-        rally = self.vec.rally
-        self.observation_space, self.action_space = _obs_space(rally), _goal_space(rally)
+        spec = self.vec.spec
+        self.observation_space, self.action_space = _obs_space(spec), _goal_space(spec)
         self._done = True
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
@@ -527,7 +528,7 @@ class SimpleRallyTurnEnv(gym.Env):
     def step(self, action):
         if self._done:
             raise RuntimeError("the rally has ended (or never began): call reset() first")
-        goal = validate_goals(action, (self.vec.rally.goal_size,))
+        goal = validate_goals(action, (self.vec.spec.goal.size,))
         obs, r, term, trunc, info = self.vec.step(goal[None])
         self._done = bool(term[0] or trunc[0])
         return (obs[0], float(r[0]), bool(term[0]), bool(trunc[0]),

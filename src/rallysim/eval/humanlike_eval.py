@@ -61,7 +61,6 @@ def evaluate_humanlike_player(low: str = "pretrained", high: str = "pretrained",
                               shuttle: str = "paper") -> dict[str, Any]:
     """A HUMAN-LIKE low level (``scripted``, ``pretrained`` or a path prefix) on ``episodes``
     serves, and the 3-D rally it plays for ``high``'s goals (``rallies`` x ``seeds``)."""
-    from rallysim.core.tasks.humanlike_rally import HumanLikeRallyTask
     from rallysim.core.tasks.rally import RallyConfig
     from rallysim.eval.rally_eval import rally_lengths_turns
     from rallysim.eval.stats import summarise_rallies
@@ -73,7 +72,7 @@ def evaluate_humanlike_player(low: str = "pretrained", high: str = "pretrained",
     returns = evaluate_humanlike(policy, episodes, shuttle=shuttle)
     low_level = goal_conditioned(policy, "humanlike")
     groups = [rally_lengths_turns(rally_goals(high, 1000 * s), low_level, rallies, 1000 * s,
-                                  RallyConfig(shuttle=shuttle), rally=HumanLikeRallyTask)
+                                  RallyConfig(shuttle=shuttle), player="humanlike")
               for s in range(seeds)]
     return {"policies": {"low": low, "high": high}, "shuttle": shuttle, "targets": TARGETS,
             "low_level": returns, "rally": summarise_rallies(groups).to_dict(),

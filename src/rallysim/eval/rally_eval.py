@@ -12,8 +12,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from rallysim.core.tasks.rally import RALLY_OBS_SIZE, RallyConfig, RallyTask
+from rallysim.core.tasks.rally import RallyConfig, RallyTask
 from rallysim.core.tasks.turns import TurnTask
+from rallysim.players import PlayerSpec
 from rallysim.policies.registry import resolve
 from rallysim.policies.types import HighLevel, LowLevel, Policy
 
@@ -49,10 +50,10 @@ def random_goals(seed: int) -> HighLevel:
 def rally_lengths_turns(high_level: HighLevel, low_level: LowLevel | str, n_rallies: int,
                         seed: int, config: RallyConfig | None = None,
                         max_turns: int | None = None,
-                        rally: type[RallyTask] = RallyTask) -> np.ndarray:
-    """Lengths of ``n_rallies`` rallies played turn by turn (cooperative rules). ``rally``:
-    the rally core (``HumanLikeRallyTask`` for HUMAN-LIKE players, whose goals are (M, 3))."""
-    turns = TurnTask(n_rallies, low_level, config, seed=seed, rally=rally)
+                        player: str | PlayerSpec = "simple") -> np.ndarray:
+    """Lengths of ``n_rallies`` rallies of ``player`` (a kind's name or spec; HUMAN-LIKE
+    goals are (M, 3)) played turn by turn (cooperative rules)."""
+    turns = TurnTask(n_rallies, low_level, config, seed=seed, player=player)
     turns.reset(np.arange(n_rallies))
     # a turn ends with a hit or the rally: a rally has at most max_hits + 1 turns
     if max_turns is None:
@@ -63,7 +64,7 @@ def rally_lengths_turns(high_level: HighLevel, low_level: LowLevel | str, n_rall
         if not len(playing):
             return lengths
         goals = np.empty((n_rallies, *turns.goals.shape[2:]))
-        goals[:] = rally.default_goal
+        goals[:] = turns.rally.default_goal
         goals[playing] = np.asarray(high_level(turns.observe()[playing])).reshape(
             goals[playing].shape)
         out = turns.step(goals, playing)
@@ -85,8 +86,8 @@ def rally_lengths_direct(policy: Policy, n_rallies: int, seed: int,
         playing = lengths < 0
         if not playing.any():
             return lengths
-        obs = task.observe().reshape(2 * n_rallies, RALLY_OBS_SIZE)
-        actions = np.clip(policy(obs), -1.0, 1.0).reshape(n_rallies, 2, 3)
+        obs = task.observe().reshape(2 * n_rallies, task.obs_size)
+        actions = np.clip(policy(obs), -1.0, 1.0).reshape(n_rallies, 2, task.action_size)
         _, term, trunc, info = task.step(actions, active=playing)
         _refuse_stalls(trunc[playing], info["rally_length"][playing], task.config)
         done = playing & (term | trunc)

@@ -99,6 +99,7 @@ class PlayerSpec:
     start: StartPose
     serve: Any  # the serve that starts each rally (a rallysim.core.serve strategy)
     observe: Callable[[Any], np.ndarray]  # Game -> (N, P, obs.size), scaled, not yet clipped
+    opponent: Callable[[Any], np.ndarray]  # Game -> (N, 2, 3) the opponent's position, own frame
     low_observations: Callable[[np.ndarray, np.ndarray], np.ndarray]  # rally obs, goals -> low
     scripted_low: Callable[[], Callable]  # () -> the rally's scripted low level (obs, goals)
     scripted_task_low: Callable[[], Callable]  # () -> the low-level task's scripted policy

@@ -16,13 +16,13 @@ import numpy as np
 
 from rallysim.assets import asset_path
 from rallysim.core.shuttle import RADIUS
+from rallysim.players import get_player
 
 SHUTTLE_RGBA = (1.0, 0.9, 0.15, 1.0)  # yellow: stands out against the green floor and the sky
 MARKER_RGBA = (0.95, 0.05, 0.05, 1.0)
 MARKER_RADIUS = 0.3
 MARKER_HALF_HEIGHT = 0.01  # a thin disc, lifted clear of the court lines (0.002 high)
 PLAYER1_BASE_RGBA = (0.85, 0.5, 0.15, 1.0)  # player 0 keeps the asset's blue
-PLAYER_KINDS = ("simple", "humanlike")
 PLAYER_ASSETS = {"simple": "simple_player.xml", "humanlike": "humanlike_player.xml"}
 # the material player 1's copy is recoloured with, per kind, to tell the two players apart
 PLAYER1_MATERIAL = {"simple": "base", "humanlike": "shirt"}
@@ -112,10 +112,8 @@ def build_render_model(n_players: int, player: str = "simple") -> mujoco.MjModel
 
 
 def check_player_kind(player: str) -> str:
-    if player not in PLAYER_KINDS:
-        raise ValueError(f"unknown player kind {player!r}; valid: "
-                         f"{', '.join(map(repr, PLAYER_KINDS))}")
-    return player
+    """``player`` if it names a player kind, else ``ValueError`` listing the kinds."""
+    return get_player(player).name
 
 
 def _lighten(spec: mujoco.MjSpec) -> None:

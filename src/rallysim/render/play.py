@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 
 from rallysim.core.tasks.rally import RallyConfig
-from rallysim.core.tasks.turn_loop import HighLevel, LowLevel, TurnLoop, rally_core
+from rallysim.core.tasks.turn_loop import HighLevel, LowLevel, TurnLoop
 from rallysim.eval.agents import Agent
 from rallysim.eval.competitive import Match
 from rallysim.render.keyboard import Keyboard, KeyboardAgent, KeyboardPlayer, keyboard_for
@@ -60,7 +60,7 @@ def play(low_level: LowLevel | str, high_level: HighLevel, human: int | None = N
 
     _check_seconds(seconds)
     # the rally first: a bad low level's name fails before any window opens
-    loop = TurnLoop.build(rally_core(player), 1, low_level, config, seed)
+    loop = TurnLoop.build(player, 1, low_level, config, seed)
     loop.reset(np.array([0]))
     keyboard = keyboard_for(player)
     # the viewer draws the model itself: no offscreen OpenGL context next to its window's

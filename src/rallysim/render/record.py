@@ -21,9 +21,10 @@ import numpy as np
 
 from rallysim.core.game import PHYSICS_DT, PHYSICS_STEPS_PER_DECISION
 from rallysim.core.tasks.rally import RallyConfig, RallyTask
-from rallysim.core.tasks.turn_loop import TurnLoop, rally_core
+from rallysim.core.tasks.turn_loop import TurnLoop
 from rallysim.eval.agents import Agent
 from rallysim.eval.competitive import Match
+from rallysim.players import PlayerSpec, get_player
 from rallysim.policies.registry import resolve
 from rallysim.policies.types import HighLevel, LowLevel, Policy
 from rallysim.render.markers import goal_markers, target_markers
@@ -163,16 +164,16 @@ def record_rally(n_rallies: int = 1, high_level: HighLevel | None = None,
     default."""
     if n_rallies < 1:
         raise ValueError(f"n_rallies must be >= 1, got {n_rallies}")
-    rally = rally_core(player)
-    choose = high_level or _uniform_goals(rally, np.random.default_rng(seed))
-    low = resolve(low_level, "rally_low", rally.spec, seed)
+    spec = get_player(player)
+    choose = high_level or _uniform_goals(spec, np.random.default_rng(seed))
+    low = resolve(low_level, "rally_low", spec, seed)
     own = renderer is None
     view = (SceneRenderer(2, width, height, camera, player=player) if renderer is None
             else renderer)
     frames: list[np.ndarray] = []
     try:
         for k in range(n_rallies):
-            loop = TurnLoop(rally(1, config, seed=seed + k), low)
+            loop = TurnLoop(RallyTask(1, config, seed + k, spec), low)
             loop.reset(np.array([0]))
             view.reset_trail()
             frames += _rally(loop, view, choose, f"rally {k + 1}/{n_rallies}", max_decisions)
@@ -182,10 +183,8 @@ def record_rally(n_rallies: int = 1, high_level: HighLevel | None = None,
     return frames
 
 
-def _uniform_goals(rally: type[RallyTask], rng: np.random.Generator) -> HighLevel:
-    if rally.goal_size == 1:
-        return lambda obs: rng.uniform(2.0, 6.0, len(obs))
-    return lambda obs: rng.uniform(-1.0, 1.0, (len(obs), rally.goal_size))
+def _uniform_goals(spec: PlayerSpec, rng: np.random.Generator) -> HighLevel:
+    return lambda obs: spec.goal.sample(rng, len(obs))
 
 
 def _rally(loop: TurnLoop, view: SceneRenderer, choose: HighLevel, title: str,

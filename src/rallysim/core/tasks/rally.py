@@ -25,8 +25,6 @@ from rallysim.core.game import Game
 from rallysim.core.simple_obs import normalise_position
 from rallysim.players import SIMPLE, PlayerSpec
 
-RALLY_OBS_SIZE = SIMPLE.rally_obs.size  # the player's 16, opponent base position 3, "my turn" 1
-START_BASE_X = SIMPLE.start.base_x  # own-frame base x of players 0 and 1 (SPEC §7)
 MODES = ("cooperative", "competitive")
 
 
@@ -75,33 +73,45 @@ class RallyConfig:
 
 
 class RallyTask:
-    """N rallies (or competitive games) of two SIMPLE players.
+    """N rallies (or competitive games) of two players of the kind ``spec``
+    (``rallysim.players``: SIMPLE by default).
 
-    What differs between player kinds comes from ``spec`` (``rallysim.players``): sizes, the
-    goal, the observation; the bodies and the serve are the hooks below, which
-    ``HumanLikeRallyTask`` overrides for the HUMAN-LIKE player; the rules stay the same."""
-
-    spec: PlayerSpec = SIMPLE
-    player = spec.name
-    obs_size = spec.rally_obs.size
-    action_size = spec.action.size
-    goal_size = spec.goal.size
-    default_goal: float | tuple[float, ...] = spec.goal.default  # one goal, in its own shape
+    What differs between player kinds comes from the spec: sizes, the goal, the bodies, the
+    start pose, the serve, the observation and the opponent's position; the rules are the same
+    for every kind."""
 
     def __init__(self, num_rallies: int, config: RallyConfig | None = None,
-                 seed: int | None = None) -> None:
+                 seed: int | None = None, spec: PlayerSpec = SIMPLE) -> None:
         self.config = config = config or RallyConfig()
+        self.spec = spec
         self.n = num_rallies
         # The net rule (re-arm both players, or block for the aero shuttle) is the game's
         # rules.Rules, derived from the shuttle model.
         self.game = Game(num_rallies, 2, shuttle=config.shuttle, seed=seed,
-                         bodies=self._bodies(num_rallies), serve=self.spec.serve)
+                         bodies=spec.make_bodies(num_rallies, 2), serve=spec.serve)
         self.competitive = config.mode == "competitive"
         n = num_rallies
         self.elapsed = np.zeros(n, np.int64)  # decisions in the current rally
         self.score = np.zeros((n, 2), np.int64)
         self.server = np.ones(n, np.int64)  # the machine serve of SPEC §4.3 goes to player 0
         self.turn_started = np.zeros((n, 2), bool)
+
+    @property
+    def player(self) -> str:
+        return self.spec.name
+
+    @property
+    def obs_size(self) -> int:
+        return self.spec.rally_obs.size
+
+    @property
+    def action_size(self) -> int:
+        return self.spec.action.size
+
+    @property
+    def default_goal(self) -> float | tuple[float, ...]:
+        """One goal, in its own shape."""
+        return self.spec.goal.default
 
     # -- episodes -------------------------------------------------------------------------------
     def reset(self, envs: np.ndarray) -> None:
@@ -112,38 +122,22 @@ class RallyTask:
         self._start_rally(envs)
 
     def _start_rally(self, envs: np.ndarray) -> None:
+        """Place both players at the spec's start pose and serve toward the receiver (SPEC §7,
+        §4.3; the serve is the spec's strategy)."""
         receiver = 1 - self.server[envs]
-        self._serve(envs, receiver)
+        k, start = len(envs), self.spec.start
+        # base_y only for bodies that have that freedom
+        body = {} if start.base_y is None else {"base_y": np.broadcast_to(start.base_y, (k, 2))}
+        self.game.reset(envs, receiver=receiver, theta=0.0,
+                        base_x=np.broadcast_to(start.base_x, (k, 2)), **body)
         self.elapsed[envs] = 0
         self.turn_started[envs] = False
         self.turn_started[envs, receiver] = True
 
-    # -- the player's hooks ---------------------------------------------------------------------
-    def _bodies(self, n: int) -> Any:
-        return None  # the Game's default: SIMPLE bodies
-
-    def _serve(self, envs: np.ndarray, receiver: np.ndarray) -> None:
-        """Place both players and serve toward ``receiver`` (SPEC §7, §4.3)."""
-        base = np.broadcast_to(np.array(START_BASE_X), (len(envs), 2))
-        self.game.reset(envs, receiver=receiver, base_x=base, theta=0.0)
-
-    def _player_observations(self) -> np.ndarray:
-        """(N, 2, obs_size - 4) what each player observes of itself and the shuttle."""
-        return self.spec.observe(self.game)
-
-    def _opponent_position(self) -> np.ndarray:
-        """(N, 2, 3) the opponent's base in each player's own frame."""
-        g = self.game
-        opp = np.zeros((self.n, 2, 3))
-        opp[..., 0] = -g.bodies.base_x[:, ::-1]  # its own-frame x, turned 180 degrees about z
-        opp[..., 2] = g.bodies.base_z
-        return opp
-
-    @classmethod
-    def clip_goals(cls, goals: np.ndarray) -> np.ndarray:
+    def clip_goals(self, goals: np.ndarray) -> np.ndarray:
         """The turn-based view's goals as finite values clipped into the goal range (SIMPLE:
         depths in [2, 6] m); NaN or inf raise ``ValueError``."""
-        return cls.spec.goal.clip(goals)
+        return self.spec.goal.clip(goals)
 
     # -- views ----------------------------------------------------------------------------------
     def observe(self) -> np.ndarray:
@@ -152,8 +146,8 @@ class RallyTask:
         g = self.game
         k = self.obs_size - 4
         obs = np.empty((self.n, 2, self.obs_size))
-        obs[..., :k] = self._player_observations()
-        obs[..., k:k + 3] = normalise_position(self._opponent_position())
+        obs[..., :k] = self.spec.observe(g)
+        obs[..., k:k + 3] = normalise_position(self.spec.opponent(g))
         obs[..., k + 3] = g.armed
         return np.clip(obs, -1.0, 1.0).astype(np.float32)
 

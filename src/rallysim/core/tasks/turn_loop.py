@@ -5,9 +5,9 @@ driver: the turn-based views (``TurnTask``), recorded videos and the live viewer
 Each decision: a player whose turn has just begun (the opponent hit, or the serve is coming to
 it) gets a goal from its high level and holds it until its next turn; both players' low levels
 act toward their current goals; the rally advances one decision. ``TurnLoop`` keeps the goals
-and runs that decision over N batched rallies. It knows a player kind only through the rally
-core class's player spec and hooks (``goal_size``, ``default_goal``, ``clip_goals``,
-``obs_size``, ``action_size``), so the same loop plays SIMPLE and HUMAN-LIKE rallies.
+and runs that decision over N batched rallies. It knows a player kind only through the rally's
+player spec (``default_goal``, ``clip_goals``, ``obs_size``, ``action_size``), so the same loop
+plays SIMPLE and HUMAN-LIKE rallies.
 
 Who picks a goal is the driver's business: a turn-based view takes it as its agent's action
 (``give_goals``), a recording or a viewer asks a high-level callable (``choose_goals``).
@@ -20,15 +20,16 @@ from typing import Any
 import numpy as np
 
 from rallysim.core.tasks.rally import RallyConfig, RallyTask
+from rallysim.players import PlayerSpec, get_player
 from rallysim.policies.registry import resolve
 from rallysim.policies.types import HighLevel, LowLevel
 
 
 class TurnLoop:
-    """N rallies of ``rally`` (a rally core: ``RallyTask`` or a subclass) whose players' low
-    level ``low_level`` (a batched callable) acts toward each player's held goal.
+    """N rallies of ``rally`` (a ``RallyTask``) whose players' low level ``low_level`` (a
+    batched callable) acts toward each player's held goal.
 
-    ``goals`` is (N, 2) for one-value goals (SIMPLE's landing depths), (N, 2, goal_size)
+    ``goals`` is (N, 2) for one-value goals (SIMPLE's landing depths), (N, 2, goal size)
     otherwise; ``turn_player`` (N,) is the player whose turn began last in each rally."""
 
     def __init__(self, rally: RallyTask, low_level: LowLevel) -> None:
@@ -38,16 +39,17 @@ class TurnLoop:
         self.turn_player = np.zeros(rally.n, np.int64)
 
     @classmethod
-    def build(cls, rally: type[RallyTask], n: int, low_level: LowLevel | str,
+    def build(cls, player: str | PlayerSpec, n: int, low_level: LowLevel | str,
               config: RallyConfig | None = None, seed: int | None = None) -> TurnLoop:
-        """A loop over a new rally core ``rally(n, config, seed)``; ``low_level`` is a callable
-        or a name of ``rallysim.policies.registry`` (role ``rally_low``, seeded with ``seed``)."""
-        task = rally(n, config, seed)
-        return cls(task, resolve(low_level, "rally_low", rally.spec, seed))
+        """A loop over ``n`` new rallies of ``player`` (a kind's name or spec); ``low_level`` is
+        a callable or a name of ``rallysim.policies.registry`` (role ``rally_low``, seeded with
+        ``seed``). An unknown kind raises ``ValueError``."""
+        spec = get_player(player)
+        return cls(RallyTask(n, config, seed, spec), resolve(low_level, "rally_low", spec, seed))
 
     @property
     def goal_shape(self) -> tuple[int, ...]:
-        """The shape of one goal: () for a depth, (goal_size,) otherwise."""
+        """The shape of one goal: () for a depth, (goal size,) otherwise."""
         return self.goals.shape[2:]
 
     # -- episodes -------------------------------------------------------------------------------
@@ -129,20 +131,3 @@ class TurnLoop:
             rows = np.flatnonzero(began)
             self.turn_player[rows] = self.rally.turn_started[rows].argmax(axis=1)
         return out
-
-
-PLAYER_KINDS = ("simple", "humanlike")
-
-
-def rally_core(player: str) -> type[RallyTask]:
-    """The rally core class of a player kind: ``RallyTask`` (``"simple"``) or
-    ``HumanLikeRallyTask`` (``"humanlike"``)."""
-    if player == "simple":
-        return RallyTask
-    if player == "humanlike":
-        # imported on demand: it brings the HUMAN-LIKE model and the low-level task along
-        from rallysim.core.tasks.humanlike_rally import HumanLikeRallyTask
-
-        return HumanLikeRallyTask
-    raise ValueError(f"unknown player kind {player!r}; valid: "
-                     f"{', '.join(map(repr, PLAYER_KINDS))}")

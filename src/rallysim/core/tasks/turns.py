@@ -12,21 +12,22 @@ from __future__ import annotations
 
 import numpy as np
 
-from rallysim.core.tasks.rally import RallyConfig, RallyTask
+from rallysim.core.tasks.rally import RallyConfig
 from rallysim.core.tasks.turn_loop import TurnLoop
+from rallysim.players import SIMPLE, PlayerSpec
 from rallysim.policies.types import LowLevel
 
 
 class TurnTask:
-    """N rallies advanced turn by turn. ``rally`` is the rally core's class (``RallyTask`` for
-    SIMPLE players); its ``goal_size`` says what one goal holds. ``low_level`` is a callable
-    or a name of ``rallysim.policies.registry`` (role ``rally_low``). The decisions themselves
-    are ``TurnLoop``'s (``self.loop``), shared with recorded videos and the live viewer."""
+    """N rallies of ``player`` (a kind's name or spec; SIMPLE by default) advanced turn by turn;
+    the spec's goal says what one goal holds. ``low_level`` is a callable or a name of
+    ``rallysim.policies.registry`` (role ``rally_low``). The decisions themselves are
+    ``TurnLoop``'s (``self.loop``), shared with recorded videos and the live viewer."""
 
     def __init__(self, num_rallies: int, low_level: LowLevel | str = "scripted",
                  config: RallyConfig | None = None, seed: int | None = None,
-                 rally: type[RallyTask] = RallyTask) -> None:
-        self.loop = TurnLoop.build(rally, num_rallies, low_level, config, seed)
+                 player: str | PlayerSpec = SIMPLE) -> None:
+        self.loop = TurnLoop.build(player, num_rallies, low_level, config, seed)
         self.rally, self.low_level, self.n = self.loop.rally, self.loop.low_level, num_rallies
         # the loop's own arrays: (N, 2) depths for SIMPLE players, (N, 2, goal_size) where a
         # goal holds more; (N,) the player whose turn it is

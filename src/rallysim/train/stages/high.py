@@ -71,13 +71,12 @@ def _humanlike_env(config: TrainConfig) -> NativeVecEnv:
 
 
 def _humanlike_lengths(config: TrainConfig, act: Act, rallies: int) -> np.ndarray:
-    from rallysim.core.tasks.humanlike_rally import HumanLikeRallyTask
     from rallysim.core.tasks.rally import RallyConfig
     from rallysim.eval.rally_eval import rally_lengths_turns
 
     return rally_lengths_turns(act, resolve(config.low_policy, "rally_low", HUMANLIKE),
                                rallies, config.eval.seed, RallyConfig(shuttle=config.shuttle),
-                               rally=HumanLikeRallyTask)
+                               player=HUMANLIKE)
 
 
 PLAYERS: dict[str, HighPlayer] = {
