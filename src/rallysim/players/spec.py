@@ -11,11 +11,17 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Any
 
 import numpy as np
 
 from rallysim.core.layout import Layout
+
+
+def _read_only(a: np.ndarray) -> np.ndarray:
+    a.setflags(write=False)
+    return a
 
 
 @dataclass(frozen=True)
@@ -33,13 +39,13 @@ class GoalSpec:
     unit: str
     mapping: str  # how a high-level action becomes the goal, in words (exports record it)
 
-    @property
+    @cached_property
     def centre(self) -> np.ndarray:
-        return 0.5 * (np.asarray(self.low) + np.asarray(self.high))
+        return _read_only(0.5 * (np.asarray(self.low) + np.asarray(self.high)))
 
-    @property
+    @cached_property
     def half_range(self) -> np.ndarray:
-        return 0.5 * (np.asarray(self.high) - np.asarray(self.low))
+        return _read_only(0.5 * (np.asarray(self.high) - np.asarray(self.low)))
 
     @property
     def shape(self) -> tuple[int, ...]:

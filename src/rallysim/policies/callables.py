@@ -14,8 +14,8 @@ class UniformRandom:
     or one value each when ``size`` is None. Extra arguments (a goal) are ignored.
     ``seed(s)`` restarts the stream, as an env's ``reset(seed=s)`` does for its own."""
 
-    def __init__(self, size: int | None, seed: int | None = None, low: float = -1.0,
-                 high: float = 1.0) -> None:
+    def __init__(self, size: int | None, seed: int | None = None,
+                 low: float | np.ndarray = -1.0, high: float | np.ndarray = 1.0) -> None:
         self.size, self.low, self.high = size, low, high
         self.seed(seed)
 

@@ -18,7 +18,7 @@ from __future__ import annotations
 import json
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 import numpy as np
 
@@ -78,11 +78,11 @@ def resolve(spec: Any, role: str, player: str | PlayerSpec = "simple",
     if not isinstance(spec, str):
         raise ValueError(f"a {role} policy is a callable or a name, got {spec!r}")
     if spec == "random":
-        if role == "high":
-            if p.goal.size == 1:
-                return UniformRandom(None, seed, p.goal.low[0], p.goal.high[0])
-            return UniformRandom(p.goal.size, seed, -1.0, 1.0) if _unit_box(p) else (
-                _refuse(spec, role, p))
+        if role == "high":  # goals drawn over the goal's own range
+            g = p.goal
+            if g.size == 1:
+                return UniformRandom(None, seed, g.low[0], g.high[0])
+            return UniformRandom(g.size, seed, np.asarray(g.low), np.asarray(g.high))
         return UniformRandom(p.action.size, seed)
     if spec == "scripted" and role in ("low", "rally_low"):
         return p.scripted_task_low() if role == "low" else p.scripted_low()
@@ -117,17 +117,13 @@ def _fixed_goal(spec: str, p: PlayerSpec) -> float | np.ndarray:
     return float(clipped[0]) if p.goal.size == 1 else clipped
 
 
-def _unit_box(p: PlayerSpec) -> bool:
-    return p.goal.low == (-1.0,) * p.goal.size and p.goal.high == (1.0,) * p.goal.size
-
-
 def _looks_like_path(spec: str) -> bool:
     """A path prefix names a file or a folder part: an existing PREFIX.json, or a path with a
     separator (whose missing file is then reported by the loader)."""
     return Path(spec).with_suffix(".json").is_file() or "/" in spec or "\\" in spec
 
 
-def _refuse(spec: str, role: str, p: PlayerSpec) -> Any:
+def _refuse(spec: str, role: str, p: PlayerSpec) -> NoReturn:
     valid = {"low": "'scripted', 'random'", "rally_low": "'scripted', 'random'",
              "high": "'random', 'fixed:G'", "mono": "'random'"}[role]
     name = "low_level" if role == "rally_low" else f"{role} policy"

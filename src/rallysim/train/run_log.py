@@ -27,11 +27,11 @@ from typing import Any
 
 import yaml
 
+from rallysim.policies.types import Policy
 from rallysim.train import stages
 from rallysim.train.checkpoint import atomic_write, json_default
 from rallysim.train.config import TrainConfig
 from rallysim.train.progress import Say
-from rallysim.train.stages.base import Act
 
 CURVE = "curve.json"
 
@@ -116,7 +116,7 @@ class RunLog:
         return True
 
     # --- evaluations and the end ---------------------------------------------------------
-    def evaluate(self, done: int, act: Act) -> dict[str, Any]:
+    def evaluate(self, done: int, act: Policy) -> dict[str, Any]:
         """Evaluate ``act`` with the stage's numbers, add the row to the curve and say it."""
         t = time.perf_counter()
         result = self.stage.evaluate(self.config, act)

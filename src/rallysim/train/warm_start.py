@@ -34,11 +34,11 @@ import numpy as np
 import torch
 from stable_baselines3 import PPO
 
+from rallysim.policies.types import Policy
 from rallysim.train import checkpoint as ckpt
 from rallysim.train.sections import WarmStartSettings
 
-Act = Callable[[np.ndarray], np.ndarray]
-Evaluate = Callable[[Act, int], dict[str, Any]]
+Evaluate = Callable[[Policy, int], dict[str, Any]]
 Say = Callable[[str], None]
 
 FORMAT = "rallysim-warm-start-checkpoint"
@@ -59,8 +59,8 @@ class CloneTask:
     make_env: Callable[[int, str], Any]  # (environments, shuttle) -> same-step vector env
 
 
-def teacher_dataset(teacher: Act, task: CloneTask, n_envs: int, decisions: int, gamma: float,
-                    seed: int, actor: Act | None = None
+def teacher_dataset(teacher: Policy, task: CloneTask, n_envs: int, decisions: int, gamma: float,
+                    seed: int, actor: Policy | None = None
                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """(obs, teacher's actions, discounted returns, sample weights) of complete episodes
     played by ``actor`` (default: the teacher itself) in ``task``'s env, ``n_envs`` at once,
@@ -129,7 +129,7 @@ class _Progress:
     result: dict[str, Any] | None = None  # set when the warm start is done
 
 
-def _teacher_name(teacher: Act) -> str:
+def _teacher_name(teacher: Policy) -> str:
     return str(getattr(teacher, "__qualname__", type(teacher).__qualname__))
 
 
@@ -280,7 +280,7 @@ def _check_state(doc: dict[str, Any], path: Path) -> None:
     req(rng, "python", list, path, "rng.")
 
 
-def behaviour_clone(model: PPO, teacher: Act, settings: WarmStartSettings, task: CloneTask,
+def behaviour_clone(model: PPO, teacher: Policy, settings: WarmStartSettings, task: CloneTask,
                     evaluate: Evaluate | None = None,
                     checkpoint: WarmCheckpoint | None = None) -> dict[str, Any]:
     """Fit ``model``'s actor mean and critic to ``teacher`` playing ``task`` as ``settings``

@@ -16,17 +16,18 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
-from rallysim.train.stages.base import Act, Stage, rally_result
+from rallysim.train.stages.base import Stage, rally_result
 from rallysim.train.stages.compete import COMPETE
 from rallysim.train.stages.high import HIGH
 from rallysim.train.stages.low import LOW
 from rallysim.train.stages.mono import MONO
 
 if TYPE_CHECKING:
+    from rallysim.policies.types import Policy
     from rallysim.train.config import TrainConfig
     from rallysim.train.sb3_vec import NativeVecEnv
 
-__all__ = ["COMPETE", "HIGH", "LOW", "MONO", "NAMES", "STAGES", "Act", "Stage", "by_name",
+__all__ = ["COMPETE", "HIGH", "LOW", "MONO", "NAMES", "STAGES", "Stage", "by_name",
            "evaluate", "export_env", "goal_mapping", "headline",
            "make_env", "of", "rally_result", "score"]
 
@@ -50,7 +51,7 @@ def make_env(config: TrainConfig) -> NativeVecEnv:
     return of(config).make_env(config)
 
 
-def evaluate(config: TrainConfig, act: Act, rallies: int | None = None) -> dict[str, Any]:
+def evaluate(config: TrainConfig, act: Policy, rallies: int | None = None) -> dict[str, Any]:
     return of(config).evaluate(config, act, rallies)
 
 

@@ -9,18 +9,16 @@ that reading a configuration (which checks it against the stages) stays light.
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
 if TYPE_CHECKING:  # SB3 is imported where its env is built: the RLlib backend runs without it
+    from rallysim.policies.types import Policy
     from rallysim.train.config import TrainConfig
     from rallysim.train.sb3_vec import NativeVecEnv
     from rallysim.train.warm_start import CloneTask
-
-Act = Callable[[np.ndarray], np.ndarray]
 
 
 class Stage:
@@ -45,7 +43,7 @@ class Stage:
         """The plain values that rebuild the training env elsewhere (an RLlib env runner)."""
         return {"shuttle": config.shuttle}
 
-    def evaluate(self, config: TrainConfig, act: Act, rallies: int | None = None
+    def evaluate(self, config: TrainConfig, act: Policy, rallies: int | None = None
                  ) -> dict[str, Any]:
         """The stage's numbers for deterministic policy ``act`` (observations -> actions)."""
         raise NotImplementedError
@@ -62,7 +60,7 @@ class Stage:
         """How the policy's action becomes a goal, for stages whose action is one."""
         return None
 
-    def teacher(self, config: TrainConfig) -> tuple[Act, str]:
+    def teacher(self, config: TrainConfig) -> tuple[Policy, str]:
         """The scripted controller a warm start clones, and its name (``warm_starts``)."""
         raise ValueError(f"the {self.name} stage has no warm start")
 

@@ -11,7 +11,8 @@ from __future__ import annotations
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, ClassVar
 
-from rallysim.train.stages.base import Act, Stage
+from rallysim.policies.types import Policy
+from rallysim.train.stages.base import Stage
 
 if TYPE_CHECKING:
     from rallysim.train.config import TrainConfig
@@ -41,7 +42,7 @@ class CompeteStage(Stage):
     def env_options(self, config: TrainConfig) -> dict[str, Any]:
         return {"shuttle": config.shuttle, "low_policy": config.low_policy}
 
-    def evaluate(self, config: TrainConfig, act: Act, rallies: int | None = None
+    def evaluate(self, config: TrainConfig, act: Policy, rallies: int | None = None
                  ) -> dict[str, Any]:
         from rallysim.eval.agents import Hierarchical, agent
         from rallysim.eval.competitive import play_games, summarise

@@ -17,7 +17,8 @@ import numpy as np
 from rallysim.players import HUMANLIKE, SIMPLE
 from rallysim.policies.callables import Composed
 from rallysim.policies.registry import resolve
-from rallysim.train.stages.base import Act, Stage, rally_result
+from rallysim.policies.types import Policy
+from rallysim.train.stages.base import Stage, rally_result
 
 if TYPE_CHECKING:
     from rallysim.train.config import TrainConfig
@@ -29,7 +30,7 @@ class HighPlayer:
     """What the high stage does differently for one player."""
 
     make_env: Callable[[TrainConfig], NativeVecEnv]
-    rally_lengths: Callable[[TrainConfig, Act, int], np.ndarray]  # (config, act, rallies)
+    rally_lengths: Callable[[TrainConfig, Policy, int], np.ndarray]  # (config, act, rallies)
     goal_mapping: str  # written into the exported policy
     export_env: str
 
@@ -50,7 +51,7 @@ def _simple_env(config: TrainConfig) -> NativeVecEnv:
     return NativeVecEnv(RescaleAction(turns, min_action=-unit, max_action=unit))
 
 
-def _simple_lengths(config: TrainConfig, act: Act, rallies: int) -> np.ndarray:
+def _simple_lengths(config: TrainConfig, act: Policy, rallies: int) -> np.ndarray:
     from rallysim.core.tasks.rally import RallyConfig
     from rallysim.eval.rally_eval import rally_lengths_turns
 
@@ -70,7 +71,7 @@ def _humanlike_env(config: TrainConfig) -> NativeVecEnv:
                                                     shuttle=config.shuttle))
 
 
-def _humanlike_lengths(config: TrainConfig, act: Act, rallies: int) -> np.ndarray:
+def _humanlike_lengths(config: TrainConfig, act: Policy, rallies: int) -> np.ndarray:
     from rallysim.core.tasks.rally import RallyConfig
     from rallysim.eval.rally_eval import rally_lengths_turns
 
@@ -100,7 +101,7 @@ class HighStage(Stage):
     def env_options(self, config: TrainConfig) -> dict[str, Any]:
         return {"shuttle": config.shuttle, "low_policy": config.low_policy}
 
-    def evaluate(self, config: TrainConfig, act: Act, rallies: int | None = None
+    def evaluate(self, config: TrainConfig, act: Policy, rallies: int | None = None
                  ) -> dict[str, Any]:
         n = rallies or config.eval.episodes
         return rally_result(PLAYERS[config.player].rally_lengths(config, act, n))

@@ -19,7 +19,8 @@ from rallysim.envs.registration import (
     SIMPLE_RETURN_ID,
     SIMPLE_RETURN_V1_ID,
 )
-from rallysim.train.stages.base import Act, Stage
+from rallysim.policies.types import Policy
+from rallysim.train.stages.base import Stage
 
 if TYPE_CHECKING:
     from rallysim.train.config import TrainConfig
@@ -37,9 +38,9 @@ class LowPlayer:
 
     env_id: str  # the registered id it trains on (built by rallysim.sb3.make_vec_env)
     env_kwargs: Callable[[TrainConfig], dict[str, Any]]
-    evaluate: Callable[[TrainConfig, Act, int], dict[str, Any]]  # (config, act, episodes)
+    evaluate: Callable[[TrainConfig, Policy, int], dict[str, Any]]  # (config, act, episodes)
     headline: Callable[[dict[str, Any]], str]
-    teacher: Callable[[str], tuple[Act, str]]  # shuttle -> (scripted controller, its name)
+    teacher: Callable[[str], tuple[Policy, str]]  # shuttle -> (scripted controller, its name)
     clone_env: Callable[[int, str], Any]  # (envs, shuttle) -> the warm start's vector env
 
 
@@ -48,7 +49,7 @@ def _simple_kwargs(config: TrainConfig) -> dict[str, Any]:
             "keep_bodies": config.keep_bodies, "goals": config.goals}
 
 
-def _simple_evaluate(config: TrainConfig, act: Act, episodes: int) -> dict[str, Any]:
+def _simple_evaluate(config: TrainConfig, act: Policy, episodes: int) -> dict[str, Any]:
     from rallysim.eval.low_eval import evaluate_return
 
     return evaluate_return(act, episodes=episodes, seed=config.eval.seed,
@@ -60,7 +61,7 @@ def _simple_headline(result: dict[str, Any]) -> str:
             f"err {result['median_error']:.2f} m")
 
 
-def _scripted_controller(shuttle: str) -> tuple[Act, str]:
+def _scripted_controller(shuttle: str) -> tuple[Policy, str]:
     from rallysim.policies import ScriptedController
 
     return ScriptedController().act_return, "ScriptedController"
@@ -76,7 +77,7 @@ def _humanlike_kwargs(config: TrainConfig) -> dict[str, Any]:
     return {"shuttle": config.shuttle}
 
 
-def _humanlike_evaluate(config: TrainConfig, act: Act, episodes: int) -> dict[str, Any]:
+def _humanlike_evaluate(config: TrainConfig, act: Policy, episodes: int) -> dict[str, Any]:
     from rallysim.eval.humanlike_eval import evaluate_humanlike
 
     return evaluate_humanlike(act, episodes=episodes, seed=config.eval.seed,
@@ -88,7 +89,7 @@ def _humanlike_headline(result: dict[str, Any]) -> str:
             f"{result['mean_angle_error']:.1f} deg speed {result['mean_abs_speed_error']:.2f}")
 
 
-def _aimed_swing(shuttle: str) -> tuple[Act, str]:
+def _aimed_swing(shuttle: str) -> tuple[Policy, str]:
     from rallysim.policies.aimed_swing import AimedSwing
 
     return AimedSwing(shuttle), "AimedSwing"
@@ -129,7 +130,7 @@ class LowStage(Stage):
         return {"shuttle": config.shuttle, "env": config.player, "incoming": config.incoming,
                 "keep_bodies": config.keep_bodies, "goals": config.goals}
 
-    def evaluate(self, config: TrainConfig, act: Act, rallies: int | None = None
+    def evaluate(self, config: TrainConfig, act: Policy, rallies: int | None = None
                  ) -> dict[str, Any]:
         return PLAYERS[config.player].evaluate(config, act, rallies or config.eval.episodes)
 
@@ -141,7 +142,7 @@ class LowStage(Stage):
             return SIMPLE_RETURN_V1_ID
         return PLAYERS[config.player].env_id
 
-    def teacher(self, config: TrainConfig) -> tuple[Act, str]:
+    def teacher(self, config: TrainConfig) -> tuple[Policy, str]:
         """The player's scripted controller that the warm start clones, and its name."""
         return PLAYERS[config.player].teacher(config.shuttle)
 

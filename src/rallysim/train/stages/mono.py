@@ -7,7 +7,8 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any, ClassVar
 
-from rallysim.train.stages.base import Act, Stage, rally_result
+from rallysim.policies.types import Policy
+from rallysim.train.stages.base import Stage, rally_result
 
 if TYPE_CHECKING:
     from rallysim.train.config import TrainConfig
@@ -30,7 +31,7 @@ class MonoStage(Stage):
         return NativeVecEnv(SimpleRallyVectorEnv(rallies, autoreset_mode="same_step",
                                                  seed=config.seed, shuttle=config.shuttle))
 
-    def evaluate(self, config: TrainConfig, act: Act, rallies: int | None = None
+    def evaluate(self, config: TrainConfig, act: Policy, rallies: int | None = None
                  ) -> dict[str, Any]:
         from rallysim.core.tasks.rally import RallyConfig
         from rallysim.eval.rally_eval import rally_lengths_direct
