@@ -22,8 +22,8 @@ from rallysim.train.runner import train_stage
 
 
 def stage_config(stage: str, decisions: int):
-    return load_config(stage, None, {"decisions": decisions, "eval_every": 0,
-                                     "eval_episodes": 16, "checkpoint_every": 10**9})
+    return load_config(stage, None, {"budget": decisions, "eval.every": 0,
+                                     "eval.episodes": 16, "checkpoint_every": 10**9})
 
 
 def measure(stage: str, decisions: int, backend: str, runners: int, folder: Path) -> dict:
@@ -47,8 +47,9 @@ def main() -> None:
     args = parser.parse_args()
     decisions = int((400_000 if args.stage == "low" else 200_000) * (0.1 if args.quick else 1))
     config = stage_config(args.stage, decisions)
-    print(f"stage {args.stage}, {decisions:,} decisions, n_envs {config.n_envs}, n_steps "
-          f"{config.n_steps}, batch {config.batch_size}, {config.n_epochs} epochs\n")
+    ppo = config.ppo
+    print(f"stage {args.stage}, {decisions:,} decisions, n_envs {ppo.n_envs}, n_steps "
+          f"{ppo.n_steps}, batch {ppo.batch_size}, {ppo.n_epochs} epochs\n")
     with tempfile.TemporaryDirectory() as tmp:
         rows = [measure(args.stage, decisions, "sb3", 0, Path(tmp))]
         rows += [measure(args.stage, decisions, "rllib", k, Path(tmp)) for k in args.runners]

@@ -35,7 +35,7 @@ def raw_env_rate(n: int, seconds: float) -> float:
 
 
 def stage_rate(stage: str, steps: int, folder: Path) -> tuple[float, float]:
-    overrides = {"decisions": steps, "eval_every": 0, "eval_episodes": 16,
+    overrides = {"budget": steps, "eval.every": 0, "eval.episodes": 16,
                  "checkpoint_every": 10**9}
     if stage == "high":
         overrides["low_policy"] = "scripted"
@@ -53,7 +53,7 @@ def main() -> None:
     scale = 0.1 if args.quick else 1.0
     budgets = {"low": int(400_000 * scale), "high": int(6_000 * scale),
                "mono": int(400_000 * scale)}
-    low_n = load_config("low").n_envs
+    low_n = load_config("low").ppo.n_envs
     ref = raw_env_rate(low_n, 1.0 if args.quick else 3.0)
     print(f"reference: raw SimpleReturnVectorEnv at N = {low_n}, random actions: "
           f"{ref:,.0f} decisions/s\n")
