@@ -119,11 +119,11 @@ def check_player_kind(player: str) -> str:
 def _lighten(spec: mujoco.MjSpec) -> None:
     """Make the scene cheap for a software rasteriser (llvmpipe), whose cost on these frames
     is per triangle and per textured pixel rather than per geom:
-    - coarse tessellation: a 0.1 m sphere is a few pixels wide, yet MuJoCo's default 28 x 16
-      slices made the 28-geom shuttle trail cost 4 ms of CPU a frame at 640x360;
+    - coarse tessellation: a 0.1 m sphere is a few pixels wide, and MuJoCo's default 28 x 16
+      slices made the shuttle trail's spheres a large share of a frame's cost;
     - the court's floor drawn as a few quads, not the 8,000 of its 0.1 m render grid;
-    - the textured skybox (2-3 ms a frame) replaced by flat, untextured walls and floor of a
-      hall around the court."""
+    - the textured skybox replaced by flat, untextured walls and floor of a hall around the
+      court. docs/rendering.md gives the measured costs."""
     quality = spec.visual.quality
     quality.numslices, quality.numstacks, quality.numquads = 12, 6, 1
     floor = spec.geom("floor")
