@@ -17,7 +17,11 @@ import rallysim  # noqa: F401  (registers the envs)
 from rallysim.envs.humanlike_rally_v0 import HumanLikeRallyTurnEnv, HumanLikeRallyTurnVectorEnv
 from rallysim.envs.registration import HUMANLIKE_RALLY_TURN_ID, SIMPLE_RALLY_TURN_V1_ID
 from rallysim.envs.simple_rally_turn_v1 import SimpleRallyTurnV1Env, SimpleRallyTurnV1VectorEnv
-from rallysim.envs.simple_rally_v0 import SimpleRallyTurnEnv, SimpleRallyTurnVectorEnv
+from rallysim.envs.simple_rally_v0 import (
+    SimpleRallyTurnEnv,
+    SimpleRallyTurnVectorEnv,
+    SimpleRallyVectorEnv,
+)
 from rallysim.envs.simple_return_v0 import SimpleReturnVectorEnv
 from tests.conftest import check_seeded_and_batched, gl_problem
 
@@ -327,3 +331,29 @@ def test_sb3_vec_env_renders_the_envs_the_batch_draws(tmp_path, render_envs, sha
     recorder.close()
     videos = list(tmp_path.glob("*.mp4"))
     assert len(videos) == 1 and videos[0].stat().st_size > 1000
+
+
+def _refused(cls: type) -> str:
+    try:
+        cls(2, autoreset_mode="sometimes")
+    except ValueError as error:
+        return str(error)  # (the traceback, and the half-built env with it, go here)
+    return "accepted"
+
+
+def test_a_refused_vector_env_is_collected_quietly():
+    """A constructor refused before its renderers exist must not raise again when Gymnasium's
+    ``VectorEnv.__del__`` closes the half-built object."""
+    import gc
+    import sys
+
+    seen = []
+    previous, sys.unraisablehook = sys.unraisablehook, seen.append
+    try:
+        refusals = [_refused(cls) for cls in (SimpleRallyVectorEnv, SimpleRallyTurnVectorEnv,
+                                              HumanLikeRallyTurnVectorEnv, SimpleReturnVectorEnv)]
+        gc.collect()
+    finally:
+        sys.unraisablehook = previous
+    assert all(r.startswith("unknown autoreset_mode 'sometimes'") for r in refusals)
+    assert [str(s.exc_value) for s in seen] == []

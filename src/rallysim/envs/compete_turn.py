@@ -38,7 +38,7 @@ class CompeteTurnVectorEnv(NativeVectorEnv):
     """The learner's turns of N competitive games against frozen opponents (see the module)."""
 
     metadata = {"render_modes": [], "autoreset_mode": SAME_STEP}
-    spec: PlayerSpec = SIMPLE
+    player_spec: PlayerSpec = SIMPLE
 
     def __init__(self, num_envs: int, opponents: Sequence[Agent],
                  weights: Sequence[float] | None = None, low_level: LowLevel | str = "pretrained",
@@ -46,7 +46,7 @@ class CompeteTurnVectorEnv(NativeVectorEnv):
                  max_decisions: int = 20_000, shuttle: str = "paper") -> None:
         self._setup(num_envs, autoreset_mode)
         self.max_decisions = positive_int(max_decisions, "max_decisions")
-        spec = self.spec
+        spec = self.player_spec
         n = self.num_units
         self.task = RallyTask(n, RallyConfig(shuttle=shuttle, mode="competitive"), seed, spec)
         self.low = resolve(low_level, "rally_low", spec)
@@ -62,7 +62,7 @@ class CompeteTurnVectorEnv(NativeVectorEnv):
         self.set_opponents(opponents, weights)
         self.decisions_simulated = 0
         self._tally = np.zeros(2, np.int64)  # points won, lost since take_tally()
-        obs_size = self.spec.rally_obs.size
+        obs_size = self.player_spec.rally_obs.size
         self.single_observation_space = spaces.Box(-1.0, 1.0, (obs_size,), np.float32)
         self.single_action_space = spaces.Box(-1.0, 1.0, (spec.goal.size,), np.float32)
         self.observation_space = spaces.Box(-1.0, 1.0, (n, obs_size), np.float32)
@@ -118,7 +118,7 @@ class CompeteTurnVectorEnv(NativeVectorEnv):
 
     def _reset_units(self, units: np.ndarray, options: dict | None) -> None:
         self.task.reset(units)
-        self.goals[units] = self.spec.goal.default
+        self.goals[units] = self.player_spec.goal.default
         self.elapsed[units] = 0
         self._draw_opponents(units)
         # play until the learner's first turn (the opponent may receive the first serve)
@@ -127,9 +127,9 @@ class CompeteTurnVectorEnv(NativeVectorEnv):
     def _step_units(self, actions: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
         from rallysim.core.validation import validate_actions
 
-        a = validate_actions(actions, (self.num_envs, self.spec.goal.size))
+        a = validate_actions(actions, (self.num_envs, self.player_spec.goal.size))
         units = np.setdiff1d(np.arange(self.num_units), self._pending)
-        goals = self.spec.goal.from_action(a)
+        goals = self.player_spec.goal.from_action(a)
         self.goals[units] = goals[units].reshape(self.goals[units].shape)
         return self._advance(units)
 

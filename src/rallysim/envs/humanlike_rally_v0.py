@@ -79,7 +79,7 @@ class HumanLikeRallyParallelEnv(SimpleRallyParallelEnv):
     """One HUMAN-LIKE rally, both players acting every decision."""
 
     metadata = {**SimpleRallyParallelEnv.metadata, "name": "humanlike_rally_v0"}
-    spec = HUMANLIKE
+    player_spec = HUMANLIKE
 
 
 class HumanLikeRallyAECEnv(SimpleRallyAECEnv):
@@ -95,20 +95,20 @@ raw_env = HumanLikeRallyAECEnv
 class HumanLikeRallyVectorEnv(SimpleRallyVectorEnv):
     """N HUMAN-LIKE rallies as 2N Gymnasium slots (slot 2e + p: player p of rally e)."""
 
-    spec = HUMANLIKE
+    player_spec = HUMANLIKE
 
 
 class HumanLikeRallyTurnAECEnv(SimpleRallyTurnAECEnv):
     """The turn-based HUMAN-LIKE rally as a PettingZoo ``AECEnv``."""
 
     metadata = {**SimpleRallyTurnAECEnv.metadata, "name": "humanlike_rally_turn_v0"}
-    spec = HUMANLIKE
+    player_spec = HUMANLIKE
 
 
 class HumanLikeRallyTurnVectorEnv(SimpleRallyTurnVectorEnv):
     """N cooperative turn-based HUMAN-LIKE rallies, single-agent: the action is the goal."""
 
-    spec = HUMANLIKE
+    player_spec = HUMANLIKE
 
 
 class HumanLikeRallyTurnEnv(SimpleRallyTurnEnv):

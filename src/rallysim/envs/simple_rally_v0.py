@@ -196,19 +196,19 @@ class SimpleRallyParallelEnv(ParallelEnv):
     """One rally, both players acting every decision. See the module docstring."""
 
     metadata = {"name": "simple_rally_v0", "render_modes": RENDER_MODES, "render_fps": 10}
-    spec: PlayerSpec = SIMPLE
+    player_spec: PlayerSpec = SIMPLE
 
     def __init__(self, render_mode: str | None = None, max_cycles: int | None = None,
                  **config: Any) -> None:
         self.max_cycles = _check_max_cycles(max_cycles)
-        self._view = EnvView(render_mode, n_players=2, player=self.spec.name)
-        self.task = RallyTask(1, rally_config(self, config), spec=self.spec)
+        self._view = EnvView(render_mode, n_players=2, player=self.player_spec.name)
+        self.task = RallyTask(1, rally_config(self, config), spec=self.player_spec)
         self.possible_agents = list(AGENTS)
         self.agents: list[str] = []
         self.render_mode = render_mode
-        self.observation_spaces = {a: _obs_space(self.spec) for a in AGENTS}
-        self.action_spaces = {a: _act_space(self.spec) for a in AGENTS}
-        self.state_space = _obs_space(self.spec)  # state() is player 0's observation
+        self.observation_spaces = {a: _obs_space(self.player_spec) for a in AGENTS}
+        self.action_spaces = {a: _act_space(self.player_spec) for a in AGENTS}
+        self.state_space = _obs_space(self.player_spec)  # state() is player 0's observation
         self.cycles = 0  # steps since reset, for max_cycles
 
     def observation_space(self, agent: str) -> spaces.Box:
@@ -239,7 +239,7 @@ class SimpleRallyParallelEnv(ParallelEnv):
 
     def step(self, actions: dict[str, Any]):
         _check_agent_actions(actions, self.agents)
-        size = self.spec.action.size
+        size = self.player_spec.action.size
         a = np.stack([validate_actions(actions[agent], (size,)) for agent in AGENTS])
         rewards, term, trunc, info = self.task.step(a[None])
         self.cycles += 1
@@ -290,7 +290,7 @@ class SimpleRallyAECEnv(parallel_to_aec_wrapper):
         if not (self.terminations[agent] or self.truncations[agent]):
             # refused at the agent's own step; the conversion would only pass it on to the
             # parallel env's checks at the last agent's step
-            validate_actions(action, (self.parallel.spec.action.size,))
+            validate_actions(action, (self.parallel.player_spec.action.size,))
         super().step(action)
 
 
@@ -311,21 +311,21 @@ class SimpleRallyVectorEnv(NativeVectorEnv):
 
     metadata = {"render_modes": RENDER_MODES, "render_fps": 10, "autoreset_mode": NEXT_STEP}
     slots_per_unit = 2
-    spec: PlayerSpec = SIMPLE
+    player_spec: PlayerSpec = SIMPLE
 
     def __init__(self, num_rallies: int = 1, autoreset_mode: str = "next_step",
                  seed: int | None = None, render_mode: str | None = None,
                  **config: Any) -> None:
         self._setup(num_rallies, autoreset_mode)
         self.render_mode = render_mode
-        self._view = EnvView(render_mode, n_players=2, player=self.spec.name)
+        self._view = EnvView(render_mode, n_players=2, player=self.player_spec.name)
         self._views = [self._view]
-        self.task = RallyTask(self.num_units, rally_config(self, config), seed, self.spec)
-        self.single_observation_space = _obs_space(self.spec)
-        self.single_action_space = _act_space(self.spec)
-        self.observation_space = spaces.Box(-1.0, 1.0, (self.num_envs, self.spec.rally_obs.size),
+        self.task = RallyTask(self.num_units, rally_config(self, config), seed, self.player_spec)
+        self.single_observation_space = _obs_space(self.player_spec)
+        self.single_action_space = _act_space(self.player_spec)
+        self.observation_space = spaces.Box(-1.0, 1.0, (self.num_envs, self.player_spec.rally_obs.size),
                                             np.float32)
-        self.action_space = spaces.Box(-1.0, 1.0, (self.num_envs, self.spec.action.size),
+        self.action_space = spaces.Box(-1.0, 1.0, (self.num_envs, self.player_spec.action.size),
                                        np.float32)
 
     def _seed_units(self, seeds: list[int]) -> None:
@@ -335,42 +335,38 @@ class SimpleRallyVectorEnv(NativeVectorEnv):
         self.task.reset(units)
 
     def _step_units(self, actions):
-        size = self.spec.action.size
+        size = self.player_spec.action.size
         a = validate_actions(actions, (self.num_envs, size))
         rewards, term, trunc, info = self.task.step(a.reshape(self.num_units, 2, size))
         return rewards.reshape(-1), term, trunc, _slot_info(info)
 
     def _observe(self) -> np.ndarray:
-        return self.task.observe().reshape(self.num_envs, self.spec.rally_obs.size)
+        return self.task.observe().reshape(self.num_envs, self.player_spec.rally_obs.size)
 
     def render(self) -> tuple[np.ndarray, ...] | None:
         """A frame of rally 0 (``"rgb_array"``)."""
         frame = render_rally(self._view, self.task, 0)
         return None if frame is None else (frame,)
 
-    def close_extras(self, **kwargs: Any) -> None:
-        self._view.close()
-
-
 class SimpleRallyTurnAECEnv(AECEnv):
     """The turn-based rally as a PettingZoo ``AECEnv``. See the module docstring."""
 
     metadata = {"name": "simple_rally_turn_v0", "render_modes": RENDER_MODES,
                 "is_parallelizable": False, "render_fps": 1}
-    spec: PlayerSpec = SIMPLE
+    player_spec: PlayerSpec = SIMPLE
 
     def __init__(self, low_level: LowLevel | str = "scripted", render_mode: str | None = None,
                  max_cycles: int | None = None, **config: Any) -> None:
         super().__init__()
         self.max_cycles = _check_max_cycles(max_cycles)
-        self._view = EnvView(render_mode, n_players=2, player=self.spec.name)
-        self.turns = TurnTask(1, low_level, rally_config(self, config), player=self.spec)
+        self._view = EnvView(render_mode, n_players=2, player=self.player_spec.name)
+        self.turns = TurnTask(1, low_level, rally_config(self, config), player=self.player_spec)
         self.possible_agents = list(AGENTS)
         self.agents = []
         self.render_mode = render_mode
-        self.observation_spaces = {a: _obs_space(self.spec) for a in AGENTS}
-        self.action_spaces = {a: _goal_space(self.spec) for a in AGENTS}
-        self.state_space = _obs_space(self.spec)  # state() is player 0's observation
+        self.observation_spaces = {a: _obs_space(self.player_spec) for a in AGENTS}
+        self.action_spaces = {a: _goal_space(self.player_spec) for a in AGENTS}
+        self.state_space = _obs_space(self.player_spec)  # state() is player 0's observation
         self.cycles = 0  # turns played since reset, for max_cycles
 
     def observation_space(self, agent: str) -> spaces.Box:
@@ -413,7 +409,7 @@ class SimpleRallyTurnAECEnv(AECEnv):
         if self.terminations[agent] or self.truncations[agent]:
             self._was_dead_step(action)
             return
-        goal = validate_goals(action, (self.spec.goal.size,))
+        goal = validate_goals(action, (self.player_spec.goal.size,))
         self._cumulative_rewards[agent] = 0.0
         out = self.turns.step(goal)
         self.cycles += 1
@@ -446,7 +442,7 @@ class SimpleRallyTurnVectorEnv(NativeVectorEnv):
     span's cooperative reward; ``info["decisions"]`` is the span's length."""
 
     metadata = {"render_modes": RENDER_MODES, "render_fps": 1, "autoreset_mode": NEXT_STEP}
-    spec: PlayerSpec = SIMPLE
+    player_spec: PlayerSpec = SIMPLE
 
     def __init__(self, num_envs: int = 1, low_level: LowLevel | str = "scripted",
                  autoreset_mode: str = "next_step", seed: int | None = None,
@@ -457,16 +453,16 @@ class SimpleRallyTurnVectorEnv(NativeVectorEnv):
                              "the competitive game")
         self._setup(num_envs, autoreset_mode)
         self.render_mode = render_mode
-        self._view = EnvView(render_mode, n_players=2, player=self.spec.name)
+        self._view = EnvView(render_mode, n_players=2, player=self.player_spec.name)
         self._views = [self._view]
-        self.turns = TurnTask(self.num_units, low_level, cfg, seed, player=self.spec)
+        self.turns = TurnTask(self.num_units, low_level, cfg, seed, player=self.player_spec)
         self.decisions_simulated = 0  # low-level decisions run inside all turns so far
-        goal = _goal_space(self.spec)
-        self.single_observation_space, self.single_action_space = _obs_space(self.spec), goal
-        self.observation_space = spaces.Box(-1.0, 1.0, (self.num_envs, self.spec.rally_obs.size),
+        goal = _goal_space(self.player_spec)
+        self.single_observation_space, self.single_action_space = _obs_space(self.player_spec), goal
+        self.observation_space = spaces.Box(-1.0, 1.0, (self.num_envs, self.player_spec.rally_obs.size),
                                             np.float32)
         self.action_space = spaces.Box(goal.low[0], goal.high[0],
-                                       (self.num_envs, self.spec.goal.size), np.float32)
+                                       (self.num_envs, self.player_spec.goal.size), np.float32)
 
     def _seed_units(self, seeds: list[int]) -> None:
         self.turns.seed(seeds)
@@ -475,7 +471,7 @@ class SimpleRallyTurnVectorEnv(NativeVectorEnv):
         self.turns.reset(units)
 
     def _step_units(self, actions):
-        size = self.spec.goal.size
+        size = self.player_spec.goal.size
         goals = validate_goals(actions, (self.num_envs, size))
         if size == 1:
             goals = goals[:, 0]
@@ -483,7 +479,7 @@ class SimpleRallyTurnVectorEnv(NativeVectorEnv):
         playing = np.setdiff1d(np.arange(self.num_units), self._pending)
         if len(self._pending):
             goals = goals.copy()
-            goals[self._pending] = self.spec.goal.default
+            goals[self._pending] = self.player_spec.goal.default
         out = self.turns.step(goals, playing)
         acted = out["acted"]
         self.decisions_simulated += int(out["decisions"].sum())
@@ -500,10 +496,6 @@ class SimpleRallyTurnVectorEnv(NativeVectorEnv):
         frame = render_rally(self._view, self.turns.rally, 0, self.turns.goals[0])
         return None if frame is None else (frame,)
 
-    def close_extras(self, **kwargs: Any) -> None:
-        self._view.close()
-
-
 class SimpleRallyTurnEnv(gym.Env):
     """One cooperative turn-based rally as a single-agent Gymnasium env (one shared policy)."""
 
@@ -514,7 +506,7 @@ class SimpleRallyTurnEnv(gym.Env):
                  **config: Any) -> None:
         self.render_mode = render_mode
         self.vec = self.vector_env(1, low_level=low_level, render_mode=render_mode, **config)
-        spec = self.vec.spec
+        spec = self.vec.player_spec
         self.observation_space, self.action_space = _obs_space(spec), _goal_space(spec)
         self._done = True
 
@@ -528,7 +520,7 @@ class SimpleRallyTurnEnv(gym.Env):
     def step(self, action):
         if self._done:
             raise RuntimeError("the rally has ended (or never began): call reset() first")
-        goal = validate_goals(action, (self.vec.spec.goal.size,))
+        goal = validate_goals(action, (self.vec.player_spec.goal.size,))
         obs, r, term, trunc, info = self.vec.step(goal[None])
         self._done = bool(term[0] or trunc[0])
         return (obs[0], float(r[0]), bool(term[0]), bool(trunc[0]),

@@ -58,6 +58,11 @@ class NativeVectorEnv(VectorEnv):
         self._needs_reset = np.ones(self.num_units, bool)
         self._pending = np.zeros(0, np.int64)
 
+    def close_extras(self, **kwargs: Any) -> None:
+        # (a constructor refused before its views exist leaves the class's empty list)
+        for v in self._views:
+            v.close()
+
     # -- for subclasses -------------------------------------------------------------------------
     def _check_options(self, options: dict[str, Any] | None) -> None:
         """Raise ``ValueError`` for reset options this env refuses (default: any)."""
@@ -215,6 +220,3 @@ class TaskVectorEnv(NativeVectorEnv):
             return None
         return tuple(self._frame(v, e) for e, v in enumerate(self._views))
 
-    def close_extras(self, **kwargs: Any) -> None:
-        for v in self._views:
-            v.close()
