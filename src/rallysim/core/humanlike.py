@@ -118,6 +118,8 @@ class HumanLikeBodies(MjDataViews):
         self._one = shape == (1, 1)
         self._diag_k = [int(k) for k in self._m_index[0, 0, self._diag_i, self._diag_i]]
         self._rate = self._joint_max_rate.tolist()
+        self._joint_group = JOINT_GROUP.tolist()
+        self._joint_max_list = self._joint_max_torque.tolist()
         self._sets: dict[tuple[int, ...], tuple] = {}  # _set_arrays of each saturated set
         self._dirty = True  # kinematics must be recomputed before they are read
         self._sync_mocap()
@@ -168,6 +170,15 @@ class HumanLikeBodies(MjDataViews):
 
     def set_actions(self, actions: np.ndarray) -> None:
         """Hold ``actions`` (N, P, 15), already clipped to [-1, 1], for the next physics steps."""
+        if self._one:  # the same operations on Python floats
+            a = actions.ravel().tolist()
+            step = self.max_hips_speed * self.dt
+            self._hips_step[0, 0] = a[0] * step, a[1] * step
+            self.target[0, 0] = [lo + (0.5 * (x + 1.0)) * (hi - lo) for x, lo, hi in
+                                 zip(a[TARGET], self._lo_list, self._hi_list, strict=True)]
+            self.torque_limit[0, 0] = [(0.5 * (a[STRENGTH.start + g] + 1.0)) * m for g, m in
+                                       zip(self._joint_group, self._joint_max_list, strict=True)]
+            return
         np.multiply(actions[..., MOVE], self.max_hips_speed * self.dt, out=self._hips_step)
         frac = 0.5 * (actions[..., TARGET] + 1.0)
         np.add(self.lo, frac * (self.hi - self.lo), out=self.target)
@@ -256,7 +267,7 @@ class HumanLikeBodies(MjDataViews):
     # LAPACK's solve stay NumPy calls on the player's block.
     def _servo_one(self) -> None:
         """``_servo`` for one player."""
-        M = np.take(self._mass, self._m_index[0, 0])
+        M = self._mass[self._m_index[0, 0]]  # np.take's values, with less overhead
         mass = self._mass.tolist()
         lim_a = self.torque_limit[0, 0]
         lim, target = lim_a.tolist(), self.target[0, 0].tolist()
