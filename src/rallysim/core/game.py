@@ -87,6 +87,7 @@ class Game:
         floor_lo, floor_hi = rules.floor_box()
         self._lo = np.stack([-half] * p + [net_lo, floor_lo])
         self._hi = np.stack([half] * p + [net_hi, floor_hi])
+        self._lo_list, self._hi_list = self._lo.tolist(), self._hi.tolist()
         self._face_apart = rules.grown(-half, half)
         self._net_apart = rules.grown(net_lo, net_hi)
         self._floor_top = rules.grown(floor_lo, floor_hi)[1][2]  # (x and y: unbounded)
@@ -372,7 +373,10 @@ class Game:
             (f0, w0), (f1, w1) = q0, q1
             if first == 0 and self._apart(f0, f1, w0, w1):
                 return None
-            q0, q1 = np.array([[f0, w0, w0]]), np.array([[f1, w1, w1]])
+            # the same test on Python floats (rules.segment_box_entry_one)
+            met, t = rules.segment_box_entry_one((f0, w0, w0)[first:], (f1, w1, w1)[first:],
+                                                 self._lo_list[first:], self._hi_list[first:])
+            return np.array([met]), np.array([t])
         return rules.segment_box_entry(q0[:, first:], q1[:, first:], self._lo[first:],
                                        self._hi[first:])
 

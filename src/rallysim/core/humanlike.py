@@ -25,6 +25,7 @@ means one pose for either player.
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import mujoco
@@ -107,14 +108,25 @@ class HumanLikeBodies(MjDataViews):
         self._inertia = np.zeros((*shape, N_JOINTS, N_JOINTS))
         self._neg_eye = -np.eye(N_JOINTS)
         self._hips_lo, self._hips_hi = self.hips_range[:, 0].copy(), self.hips_range[:, 1].copy()
+        self._hips_lo_list, self._hips_hi_list = self._hips_lo.tolist(), self._hips_hi.tolist()
+        self._lo_list, self._hi_list = self.lo.tolist(), self.hi.tolist()
+        self._forward_one = float(self.forward.flat[0])
         self._diag_i = np.arange(N_JOINTS)
         self._side = np.zeros((*shape, N_JOINTS), dtype=np.int8)  # servos saturated at +-limit
+        # One player (N = P = 1) steps on Python floats (the ``_one`` methods): each NumPy call
+        # costs about as much as the whole arithmetic on its 8 values.
+        self._one = shape == (1, 1)
+        self._diag_k = [int(k) for k in self._m_index[0, 0, self._diag_i, self._diag_i]]
+        self._rate = self._joint_max_rate.tolist()
+        self._joint_group = JOINT_GROUP.tolist()
+        self._joint_max_list = self._joint_max_torque.tolist()
+        self._sets: dict[tuple[int, ...], tuple] = {}  # _set_arrays of each saturated set
         self._dirty = True  # kinematics must be recomputed before they are read
         self._sync_mocap()
         self._sync()
 
     _views = ("qpos", "qvel", "torque", "_bias", "_mass", "_mocap", "_face_pos", "_face_mat",
-              "base_x")
+              "base_x", "_flat_qpos", "_flat_qvel", "_flat_ctrl", "_flat_bias")
 
     def _bind_views(self) -> None:
         """Views into MuJoCo's memory (players are env-major and contiguous in every array),
@@ -129,6 +141,9 @@ class HumanLikeBodies(MjDataViews):
         self._face_pos = d.site_xpos.reshape((*shape, 3))  # world frame
         self._face_mat = d.site_xmat.reshape((*shape, 3, 3))
         self.base_x = self.hips[..., 0]
+        # flat views (all players' values in a row) for the one-player path
+        self._flat_qpos, self._flat_qvel, self._flat_ctrl = d.qpos, d.qvel, d.ctrl
+        self._flat_bias = d.qfrc_bias
 
     # -- state ---------------------------------------------------------------------------------
     def reset(self, envs: np.ndarray, base_x: np.ndarray, pose: Any = 0.0,
@@ -155,6 +170,15 @@ class HumanLikeBodies(MjDataViews):
 
     def set_actions(self, actions: np.ndarray) -> None:
         """Hold ``actions`` (N, P, 15), already clipped to [-1, 1], for the next physics steps."""
+        if self._one:  # the same operations on Python floats
+            a = actions.ravel().tolist()
+            step = self.max_hips_speed * self.dt
+            self._hips_step[0, 0] = a[0] * step, a[1] * step
+            self.target[0, 0] = [lo + (0.5 * (x + 1.0)) * (hi - lo) for x, lo, hi in
+                                 zip(a[TARGET], self._lo_list, self._hi_list, strict=True)]
+            self.torque_limit[0, 0] = [(0.5 * (a[STRENGTH.start + g] + 1.0)) * m for g, m in
+                                       zip(self._joint_group, self._joint_max_list, strict=True)]
+            return
         np.multiply(actions[..., MOVE], self.max_hips_speed * self.dt, out=self._hips_step)
         frac = 0.5 * (actions[..., TARGET] + 1.0)
         np.add(self.lo, frac * (self.hi - self.lo), out=self.target)
@@ -169,10 +193,16 @@ class HumanLikeBodies(MjDataViews):
         state: the rulebook reads the face there, and the next servo solve needs them."""
         self._sync()
         np.copyto(self._face0, self._face_pos)
-        self._servo()
-        mujoco.mj_step2(self.model, self.data)
-        self._joint_stops()
-        self._move_hips()
+        if self._one:
+            self._servo_one()
+            mujoco.mj_step2(self.model, self.data)
+            self._joint_stops_one()
+            self._move_hips_one()
+        else:
+            self._servo()
+            mujoco.mj_step2(self.model, self.data)
+            self._joint_stops()
+            self._move_hips()
         mujoco.mj_step1(self.model, self.data)
 
     # -- the servo -----------------------------------------------------------------------------
@@ -228,6 +258,94 @@ class HumanLikeBodies(MjDataViews):
             todo = todo[changed]
             if not len(todo):
                 break
+
+    # -- one player on Python floats -----------------------------------------------------------
+    # The same operations as ``_servo``, ``_saturate``, ``_joint_stops`` and ``_move_hips`` in
+    # the same order, so the results are bit-identical: np.minimum(a, b) is ``a if a < b else
+    # b`` and np.maximum(a, b) ``a if a > b else b`` (either gives b on a tie, so signed zeros
+    # come out as NumPy's). The 8 x 8 products and their row sums (NumPy's pairwise order) and
+    # LAPACK's solve stay NumPy calls on the player's block.
+    def _servo_one(self) -> None:
+        """``_servo`` for one player."""
+        M = self._mass[self._m_index[0, 0]]  # np.take's values, with less overhead
+        mass = self._mass.tolist()
+        lim_a = self.torque_limit[0, 0]
+        lim, target = lim_a.tolist(), self.target[0, 0].tolist()
+        q, w = self._flat_qpos.tolist(), self._flat_qvel.tolist()
+        rate, diag = self._rate, self._diag_k
+        inv_dt, brake = 1.0 / self.dt, 2.0 * BRAKE_SHARE
+        acc = []
+        for i in range(N_JOINTS):
+            e = target[i] - q[i]
+            size = abs(e)
+            speed = math.sqrt(brake * lim[i] / mass[diag[i]] * size)
+            cap = size * inv_dt
+            speed = speed if speed < cap else cap
+            cap = rate[i]
+            speed = speed if speed < cap else cap
+            acc.append((math.copysign(speed, e) - w[i]) * inv_dt)
+        products = M * acc  # _matvec's, whose row sums (with held columns zeroed) recur below
+        tau = (np.add.reduce(products, axis=-1) + self._flat_bias).tolist()
+        side = [old if old else (t > m) - (t < -m)
+                for old, t, m in zip(self._side[0, 0].tolist(), tau, lim, strict=True)]
+        if any(side):
+            tau, side = self._saturate_one(M, products, acc, side, lim, lim_a)
+        self._side[0, 0] = side
+        self._flat_ctrl[:] = [_np_min(_np_max(t, -m), m) for t, m in zip(tau, lim, strict=True)]
+
+    def _saturate_one(self, M: np.ndarray, products: np.ndarray, acc: list[float],
+                      side: list[int], lim: list[float], lim_a: np.ndarray
+                      ) -> tuple[list[float], list[int]]:
+        """``_saturate`` for one player: rounds of ``_active_set_round`` until the saturated
+        set settles; the torques and set of the last round. The row sums of M a with the held
+        joints' accelerations zeroed are those of ``products`` (M a) with the held columns
+        zeroed: the same pairwise sums, whose nonzero partial sums do not depend on the sign
+        of a zero term, and a zero total is +0.0 either way (the reduction starts from
+        +0.0)."""
+        bias, sets = self._flat_bias, self._sets
+        for _ in range(ACTIVE_SET_ROUNDS):
+            key = tuple(side)
+            arrays = sets.get(key)
+            if arrays is None:
+                arrays = sets[key] = _set_arrays(key)
+            held, held_mask, free, side_f = arrays
+            bound = side_f * lim_a
+            r = (bound - bias) - np.add.reduce(products * free, axis=-1)
+            u = _solve(np.where(held_mask, M, self._neg_eye), r).tolist()
+            new = [(s if s * (x - a) <= 0.0 or m == 0.0 else 0) if h else (x > m) - (x < -m)
+                   for h, s, x, a, m in zip(held, side, u, acc, lim, strict=True)]
+            if new == side:
+                break
+            side = new
+        tau = [b if h else x for h, b, x in zip(held, bound.tolist(), u, strict=True)]
+        return tau, new
+
+    def _joint_stops_one(self) -> None:
+        """``_joint_stops`` for one player."""
+        q, w = self._flat_qpos.tolist(), self._flat_qvel.tolist()
+        lo, hi = self._lo_list, self._hi_list
+        over = [x > h or x < lo_ for x, lo_, h in zip(q, lo, hi, strict=True)]
+        stopped = any(over)
+        if stopped:
+            self._flat_qpos[:] = [_np_min(_np_max(x, lo_), h)
+                                  for x, lo_, h in zip(q, lo, hi, strict=True)]
+            w = [0.0 if o else v for o, v in zip(over, w, strict=True)]
+        if stopped or max(w) > MAX_JOINT_SPEED or min(w) < -MAX_JOINT_SPEED:
+            self._flat_qvel[:] = [_np_min(_np_max(v, -MAX_JOINT_SPEED), MAX_JOINT_SPEED)
+                                  for v in w]
+
+    def _move_hips_one(self) -> None:
+        """``_move_hips`` for one player."""
+        (x, y), (sx, sy) = self.hips[0, 0].tolist(), self._hips_step[0, 0].tolist()
+        (xlo, ylo), (xhi, yhi) = self._hips_lo_list, self._hips_hi_list
+        nx, ny = _np_min(_np_max(x + sx, xlo), xhi), _np_min(_np_max(y + sy, ylo), yhi)
+        inv_dt = 1.0 / self.dt
+        vx, vy = (nx - x) * inv_dt, (ny - y) * inv_dt
+        self.hips_velocity[0, 0] = vx, vy
+        self.base_moved[0, 0] = vx != 0.0 or vy != 0.0
+        self.hips[0, 0] = nx, ny
+        f = self._forward_one
+        self._mocap[0, 0] = nx * f, ny * f, self.hips_height
 
     def _joint_stops(self) -> None:
         """Hard stops at the joint limits (a joint past one is put back and stopped) and the
@@ -363,6 +481,35 @@ class HumanLikeBodies(MjDataViews):
         rel = pos * flip - self.hips_position()[..., None, :]
         return vel, ang * flip, rel, self._own_quat(d.xquat[ids])
 
+    def face_position_one(self) -> list[float]:
+        """One player's world face centre (x, y, z) as Python floats."""
+        self._sync()
+        return self._face_pos[0, 0].tolist()
+
+    def body_states_one(self) -> list[list[float]]:
+        """``body_states`` and ``body_effort`` of one player (N = P = 1) as Python floats,
+        the same operations in the same order: per body, velocity 3, angular velocity 3,
+        position relative to the hips 3, quaternion 4 and effort 1."""
+        self._sync()
+        d, ids = self.data, self._body_ids[0, 0]
+        cx, cy, cz = d.subtree_com[self._hips_ids[0, 0]].tolist()
+        f = self._forward_one  # flip: (f, f, 1.0)
+        (hvx, hvy), (hx, hy) = self.hips_velocity[0, 0].tolist(), self.hips[0, 0].tolist()
+        hz = self.hips_height
+        sq = [x * x for x in (self.torque[0, 0] / self._joint_max_torque).tolist()]
+        sums = (sq[0], sq[1], (sq[2] + sq[3]) + sq[4], sq[5], sq[6] + sq[7])  # _group_sums
+        out = []
+        for (px, py, pz), (a0, a1, a2, l0, l1, l2), q, total, size in zip(
+                d.xpos[ids].tolist(), d.cvel[ids].tolist(), d.xquat[ids].tolist(), sums,
+                GROUP_SIZE.tolist(), strict=True):
+            b0, b1, b2 = px - cx, py - cy, pz - cz
+            sign = -1.0 if q[0] < 0.0 else 1.0
+            out.append([(l0 + (a1 * b2 - a2 * b1)) * f + hvx, (l1 + (a2 * b0 - a0 * b2)) * f + hvy,
+                        (l2 + (a0 * b1 - a1 * b0)) * 1.0, a0 * f, a1 * f, a2 * 1.0,
+                        px * f - hx, py * f - hy, pz * 1.0 - hz, *(x * sign for x in q),
+                        math.sqrt(total / size)])
+        return out
+
     def _own_quat(self, q: np.ndarray) -> np.ndarray:
         """World quaternions (N, P, B, 4) -> own frame; player 1's frame is the world turned
         180 degrees about z, i.e. q_own = (0, 0, 0, 1) * q."""
@@ -378,6 +525,24 @@ class HumanLikeBodies(MjDataViews):
         fraction of its group's maximum: |tau| / (max torque * sqrt(joints)), in [0, 1]."""
         frac = (self.torque / self._joint_max_torque) ** 2
         return np.sqrt(_group_sums(frac) / GROUP_SIZE)
+
+
+def _set_arrays(side: tuple[int, ...]) -> tuple:
+    """A saturated set (``side``: +1, -1 or 0 per joint) as the one-player servo uses it: held
+    flags, as a bool array, free flags as 0.0 / 1.0, and side as floats."""
+    held = tuple(s != 0 for s in side)
+    return (held, np.array(held), np.array([0.0 if h else 1.0 for h in held]),
+            np.array(side, dtype=np.float64))
+
+
+def _np_min(a: float, b: float) -> float:
+    """np.minimum of two numbers (b on a tie; not NaN-propagating: NaN never reaches it)."""
+    return a if a < b else b
+
+
+def _np_max(a: float, b: float) -> float:
+    """np.maximum of two numbers (b on a tie)."""
+    return a if a > b else b
 
 
 def _group_sums(x: np.ndarray) -> np.ndarray:

@@ -49,6 +49,13 @@ def player_observations(game: Game) -> np.ndarray:
     """(N, P, 82) float64 observations of every HUMAN-LIKE player, own frame, scaled (not yet
     clipped). ``game.bodies`` must be ``HumanLikeBodies``."""
     b: HumanLikeBodies = game.bodies  # type: ignore[assignment]
+    if (game.n_envs, game.n_players) == (1, 1):
+        return _player_observation_one(game, b)
+    return _player_observations_arrays(game, b)
+
+
+def _player_observations_arrays(game: Game, b: HumanLikeBodies) -> np.ndarray:
+    """``player_observations`` as array code over the batch."""
     n, p = game.n_envs, game.n_players
     out = np.empty((n, p, PLAYER_OBS_SIZE))
     body = out[..., :N_BODIES * BODY_OBS_SIZE].reshape(n, p, N_BODIES, BODY_OBS_SIZE)
@@ -68,6 +75,35 @@ def player_observations(game: Game) -> np.ndarray:
         positions -= POSITION_CENTRE  # normalise_position, in place
         positions /= POSITION_SCALE
     return out
+
+
+def _player_observation_one(game: Game, b: HumanLikeBodies) -> np.ndarray:
+    """``player_observations`` of one player (N = P = 1) computed on Python floats, the same
+    operations in the same order (each NumPy call would cost more than its arithmetic)."""
+    values = []
+    for v in b.body_states_one():
+        values += (v[0] / BODY_SPEED_SCALE, v[1] / BODY_SPEED_SCALE, v[2] / BODY_SPEED_SCALE,
+                   v[3] / BODY_RATE_SCALE, v[4] / BODY_RATE_SCALE, v[5] / BODY_RATE_SCALE,
+                   v[6] / BODY_OFFSET_SCALE, v[7] / BODY_OFFSET_SCALE,
+                   v[8] / BODY_OFFSET_SCALE, v[9], v[10], v[11], v[12], 2.0 * v[13] - 1.0)
+    f = b._forward_one  # flip: (f, f, 1.0)
+    x, y, z, vx, vy, vz = game.shuttle.motion[:, 0].tolist()
+    fx, fy, fz = b.face_position_one()
+    values += _normalised(x * f, y * f, z * 1.0)
+    values += (vx * f / SHUTTLE_SPEED_SCALE, vy * f / SHUTTLE_SPEED_SCALE,
+               vz * 1.0 / SHUTTLE_SPEED_SCALE)
+    values += _normalised(*b.hips[0, 0].tolist(), b.hips_height)
+    values += _normalised(fx * f, fy * f, fz * 1.0)
+    return np.array(values).reshape(1, 1, PLAYER_OBS_SIZE)
+
+
+def _normalised(x: float, y: float, z: float) -> tuple[float, float, float]:
+    """``normalise_position`` of one own-frame position, on floats."""
+    (cx, cy, cz), (sx, sy, sz) = _CENTRE, _SCALE
+    return (x - cx) / sx, (y - cy) / sy, (z - cz) / sz
+
+
+_CENTRE, _SCALE = POSITION_CENTRE.tolist(), POSITION_SCALE.tolist()
 
 
 def opponent_positions(game: Game) -> np.ndarray:

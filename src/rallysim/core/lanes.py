@@ -212,9 +212,10 @@ def _scaled(lanes: list, shape: tuple[int, ...], centre: tuple, scale: tuple) ->
 def _observations(lanes: list, shape: tuple[int, ...], centre: tuple, scale: tuple
                   ) -> np.ndarray:
     scaled = [(x - c) / s for x, c, s in zip(lanes, centre, scale, strict=True)]
-    # np.clip's result, then np.array rounds each double to float32 as astype does
     clipped = [v if -1.0 <= v <= 1.0 else (-1.0 if v < -1.0 else 1.0) for v in scaled]
-    return np.array(clipped, np.float32).reshape(*shape, len(lanes))
+    # np.clip's result, then astype's rounding to float32 (np.array(..., np.float32) rounds
+    # the same but converts number by number, slower)
+    return np.array(clipped).astype(np.float32).reshape(*shape, len(lanes))
 
 
 class ScalarOps:
@@ -292,9 +293,10 @@ class ScalarLanes:
     def load(cls, views: dict[str, np.ndarray],
              vectors: dict[str, np.ndarray] | None = None) -> ScalarLanes:
         lanes = cls.__new__(cls)
-        lanes.__dict__ = {name: v.item() for name, v in views.items()}
+        d = lanes.__dict__ = {name: v.item() for name, v in views.items()}
         if vectors:
-            lanes.__dict__.update((name, v.ravel().tolist()) for name, v in vectors.items())
+            for name, v in vectors.items():  # (a loop: a generator costs more for two)
+                d[name] = v.ravel().tolist()
         return lanes
 
     def reload(self, views: dict[str, np.ndarray],

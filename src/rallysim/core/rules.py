@@ -178,6 +178,33 @@ def segment_box_entry(
     return hit, t_enter
 
 
+def segment_box_entry_one(q0: tuple, q1: tuple, lo: list, hi: list) -> tuple[list, list]:
+    """``segment_box_entry`` of one game's points (each an (x, y, z) of Python numbers) against
+    their boxes (``lo``, ``hi``: lists of 3 numbers each), the same operations on Python
+    floats: (hit, t) as lists, one value per point. (np.minimum(a, b) is ``a if a < b else
+    b``, np.maximum(a, b) ``a if a > b else b``: either gives b on a tie.)"""
+    hits, ts = [], []
+    for p0, p1, box_lo, box_hi in zip(q0, q1, lo, hi, strict=True):
+        near, far = [], []
+        for a, b, low, high in zip(p0, p1, box_lo, box_hi, strict=True):
+            d = b - a
+            if abs(d) < 1e-12:
+                d = 1e-12 if d >= 0.0 else -1e-12
+            inv = 1.0 / d
+            ta, tb = (low - a) * inv, (high - a) * inv
+            near.append(ta if ta < tb else tb)
+            far.append(ta if ta > tb else tb)
+        (n0, n1, n2), (f0, f1, f2) = near, far
+        m01 = n0 if n0 > n1 else n1
+        m2 = n2 if n2 > 0.0 else 0.0
+        t_enter = m01 if m01 > m2 else m2
+        f01 = f0 if f0 < f1 else f1
+        t_exit = f01 if f01 < f2 else f2
+        hits.append(t_enter <= t_exit and t_enter <= 1.0)
+        ts.append(t_enter)
+    return hits, ts
+
+
 # How far outside a box (per axis) a segment must stay for ``apart``: far above the rounding
 # error of the slab arithmetic on positions of metres, so that segment_box_entry misses it too.
 APART_MARGIN = 1e-6

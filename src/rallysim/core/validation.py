@@ -4,6 +4,7 @@ was."""
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable
 from typing import Any
 
@@ -12,7 +13,7 @@ import numpy as np
 from rallysim.core.game import validate_seed
 
 __all__ = ["check_options", "option_values", "positive_int", "read_options", "real_array",
-           "validate_actions", "validate_goals", "validate_seed"]
+           "validate_action_row", "validate_actions", "validate_goals", "validate_seed"]
 
 
 def real_array(value: Any, what: str, shape: tuple[int, ...]) -> np.ndarray:
@@ -51,6 +52,19 @@ def validate_actions(actions: Any, shape: tuple[int, ...], lo: float = -1.0,
     # np.clip's result, in place on real_array's copy, with less overhead per call
     np.maximum(a, lo, out=a)
     return np.minimum(a, hi, out=a)
+
+
+def validate_action_row(action: Any, shape: tuple[int, ...]) -> np.ndarray:
+    """One environment's ``action`` validated as ``validate_actions`` does, as a (1, k) array.
+    A float32 or float64 array of the right shape is checked and clipped on Python floats (the
+    same numbers: np.maximum then np.minimum, each giving the bound on a tie); anything else,
+    or a non-finite value, takes ``validate_actions``, which raises the same errors."""
+    if type(action) is np.ndarray and action.shape == shape and action.dtype.char in "fd":
+        values = action.tolist()
+        if all(map(math.isfinite, values)):
+            clipped = [v if v > -1.0 else -1.0 for v in values]
+            return np.array([[v if v < 1.0 else 1.0 for v in clipped]])
+    return validate_actions(action, shape)[None, :]
 
 
 def validate_goals(goals: Any, shape: tuple[int, ...]) -> np.ndarray:

@@ -15,7 +15,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from rallysim.core.validation import validate_actions, validate_seed
+from rallysim.core.validation import validate_action_row, validate_seed
 from rallysim.envs.rendering import EnvView
 
 
@@ -74,9 +74,9 @@ class TaskEnv(gym.Env):
     def step(self, action):
         if self._done:
             raise RuntimeError("the episode has ended (or never began): call reset() first")
-        a = validate_actions(action, self.action_space.shape)
+        a = validate_action_row(action, self.action_space.shape)
         # the task's values as lanes: Python numbers for its one game (rallysim.core.lanes)
-        reward, term, trunc, values = self.task.outcome(a[None, :])
+        reward, term, trunc, values = self.task.outcome(a)
         terminated, truncated = bool(_first(term)), bool(_first(trunc))
         self._done = terminated or truncated
         if self.render_mode == "human":
