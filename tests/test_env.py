@@ -130,6 +130,10 @@ def test_landing_reward_values():
     assert landing_case(4.0, -3.0)[1] == 0.0  # own side
     # not hit: the shaping of the steps before a hit still counts
     assert landing_case(4.0, 5.0, hit=False)[1] == pytest.approx(-0.005)
+    # the reward's terms in info: landing only
+    _, r, _, _, info = landing_case(4.0, 5.0)
+    assert (info["reward_shaping"], info["reward_hit"]) == (0.0, 0.0)
+    assert info["reward_landing"] == r == pytest.approx(np.exp(-0.5))
 
 
 def test_hit_reward_and_info():
@@ -142,6 +146,29 @@ def test_hit_reward_and_info():
     _, r, _, _, info = env.step([1.0, 1.0, 0.0])
     assert info["hit"] and info["racket_speed"] == pytest.approx(7.42)
     assert 1.0 - 0.025 <= r <= 1.0  # +1 for the hit, shaping for the steps before it
+    assert info["reward_hit"] == 1.0 and info["reward_landing"] == 0.0
+    assert info["reward_shaping"] == pytest.approx(r - 1.0) and info["reward_shaping"] < 0
+
+
+def test_reward_terms_sum_to_the_reward_in_both_tasks():
+    """Each step's info names the reward's terms (Gymnasium's MuJoCo v5 habit); over a seeded
+    batch of scripted play they add up to the reward exactly, and every term occurs."""
+    from rallysim.envs.humanlike_return_v0 import HumanLikeReturnVectorEnv
+    from rallysim.players import HUMANLIKE
+
+    cases = ((SimpleReturnVectorEnv(16, seed=0), ScriptedController().act_return,
+              ("reward_shaping", "reward_hit", "reward_landing")),
+             (HumanLikeReturnVectorEnv(16, seed=0), HUMANLIKE.scripted_task_low(),
+              ("reward_hit", "reward_velocity")))
+    for env, policy, keys in cases:
+        obs, _ = env.reset(seed=0)
+        totals = dict.fromkeys(keys, 0.0)
+        for _ in range(40):
+            obs, reward, _, _, info = env.step(policy(obs))
+            assert np.array_equal(sum(info[k] for k in keys), reward)
+            for k in keys:
+                totals[k] += float(np.abs(info[k]).sum())
+        assert all(v > 0 for v in totals.values()), totals
 
 
 def test_truncation_at_max_decisions():

@@ -61,12 +61,15 @@ the vector env takes one value for all environments or one per environment.
 ``hit``, ``racket_velocity`` (m/s, own frame, at the hit), ``velocity_error`` (d, m/s),
 ``angle_error`` (degrees between v and v*; NaN if the racket was still), ``speed_error``
 ((abs(v) - abs(v*)) / abs(v*), signed), ``net_touch``, ``landed``, ``landing_point`` (world, m),
-``target_velocity``. The single env gives the hit values only on a hit and ``landing_point``
+``target_velocity``, and the reward's two terms every step, which sum to it: ``reward_hit``
+(0.5 on a hit) and ``reward_velocity`` (0.5 exp(-1.5 d) on a hit). The single env gives the hit
+values only on a hit and ``landing_point``
 only at the landing; the vector env gives arrays for all keys, with NaN where a value does not
 apply and Gymnasium's ``_key`` masks marking where it does.
 
 ## Version history
-- v0: first release.
+- v0: first release. 2026-11-24: ``info`` gains the reward's terms (``reward_*``); observations,
+  rewards and episode ends are unchanged.
 """
 
 from __future__ import annotations
@@ -96,6 +99,7 @@ class HumanLikeReturnEnv(TaskEnv):
 
     metadata = {"render_modes": RENDER_MODES, "render_fps": 10}
     goal_key = "target_velocity"
+    reward_keys = ("reward_hit", "reward_velocity")
     hit_keys = HIT_KEYS
     landing_keys = ("landing_point",)
 

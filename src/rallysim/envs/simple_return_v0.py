@@ -51,7 +51,8 @@ value per environment.
 ## ``info``
 ``hit``, ``racket_speed`` (m/s at the hit, else 0), ``net_touch``, ``landed``,
 ``landing_point`` (world, m), ``landing_depth`` (m beyond the net), ``landing_error``
-(abs(depth - d*)), ``landed_in``, ``target_depth``. The single env gives ``racket_speed`` only on
+(abs(depth - d*)), ``landed_in``, ``target_depth``, and the reward's three terms every step,
+which sum to it: ``reward_shaping``, ``reward_hit``, ``reward_landing``. The single env gives ``racket_speed`` only on
 a hit and the landing keys only at the landing; the vector env gives arrays for all keys, with
 NaN where a value does not apply and Gymnasium's ``_key`` masks marking where it does.
 
@@ -60,7 +61,8 @@ NaN where a value does not apply and Gymnasium's ``_key`` masks marking where it
   reached at all (the deepest full-speed return lands 3.8 m deep in the median); see
   docs/rl-alone.md for what the change does to learning from scratch.
 - v0: first release. Fix (2026-11-23): reset options no longer shift the random stream
-  (episodes reset without options are unchanged).
+  (episodes reset without options are unchanged). 2026-11-24: ``info`` gains the reward's
+  terms (``reward_*``); observations, rewards and episode ends are unchanged.
 """
 
 from __future__ import annotations
@@ -91,6 +93,7 @@ class SimpleReturnEnv(TaskEnv):
 
     metadata = {"render_modes": RENDER_MODES, "render_fps": 10}
     goal_key = "target_depth"
+    reward_keys = ("reward_shaping", "reward_hit", "reward_landing")
     hit_keys = ("racket_speed",)
     landing_keys = LANDING_KEYS
 

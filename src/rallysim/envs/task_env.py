@@ -34,10 +34,11 @@ def _first(v: Any) -> Any:
 
 class TaskEnv(gym.Env):
     """One environment of a one-player task. Subclasses set ``goal_key`` (the goal's info key),
-    ``hit_keys`` and ``landing_keys`` (info values given only when that event happened) and
-    draw frames in ``_frame(view, env)``."""
+    ``reward_keys`` (the reward's terms), ``hit_keys`` and ``landing_keys`` (info values given
+    only when that event happened) and draw frames in ``_frame(view, env)``."""
 
     goal_key = "goal"
+    reward_keys: tuple[str, ...] = ()  # the reward's terms, given every step
     hit_keys: tuple[str, ...] = ()
     landing_keys: tuple[str, ...] = ()
 
@@ -87,7 +88,8 @@ class TaskEnv(gym.Env):
     def _info(self, values: dict) -> dict:
         """The info of the task's values. Event values appear only when their event happened
         (Gymnasium's single-env habit)."""
-        info = {k: _first(values[k]) for k in ("hit", "net_touch", "landed", self.goal_key)}
+        info = {k: _first(values[k])
+                for k in ("hit", "net_touch", "landed", self.goal_key, *self.reward_keys)}
         for happened, keys in ((info["hit"], self.hit_keys),
                                (info["landed"], self.landing_keys)):
             if happened:

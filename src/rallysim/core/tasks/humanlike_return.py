@@ -102,7 +102,8 @@ class HumanLikeReturnTask:
         else:  # rewards and hit values only come with a hit
             reward = 0.0
             values = {"racket_velocity": np.full((self.n, 3), np.nan), "velocity_error": np.nan,
-                      "angle_error": np.nan, "speed_error": np.nan}
+                      "angle_error": np.nan, "speed_error": np.nan, "reward_hit": 0.0,
+                      "reward_velocity": 0.0}
         landing = (np.where(ev.landed[:, None], ev.land_point, np.nan) if ops.any(landed)
                    else np.full((self.n, 3), np.nan))
         truncated = ops.logical_not(landed) & (read(self.elapsed) >= self.max_decisions)
@@ -116,12 +117,15 @@ class HumanLikeReturnTask:
         (N, 3)."""
         v = np.where(hit[:, None], velocity, np.nan)
         error = np.linalg.norm(v - self.goal, axis=1)
-        reward = np.where(hit, 0.5 * (R_HIT + np.exp(-R_VELOCITY_RATE * np.nan_to_num(error))),
-                          0.0)
+        closeness = np.exp(-R_VELOCITY_RATE * np.nan_to_num(error))
+        reward = np.where(hit, 0.5 * (R_HIT + closeness), 0.0)
         speed, goal_speed = np.linalg.norm(v, axis=1), np.linalg.norm(self.goal, axis=1)
         with np.errstate(invalid="ignore", divide="ignore"):
             cos = np.einsum("ij,ij->i", v, self.goal) / (speed * goal_speed)
             angle = np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
             speed_error = (speed - goal_speed) / goal_speed
+        # the reward's terms, which sum to it (halving is exact)
+        terms = {"reward_hit": np.where(hit, 0.5 * R_HIT, 0.0),
+                 "reward_velocity": np.where(hit, 0.5 * closeness, 0.0)}
         return reward, {"racket_velocity": v, "velocity_error": error, "angle_error": angle,
-                        "speed_error": speed_error}
+                        "speed_error": speed_error, **terms}

@@ -140,10 +140,10 @@ class ReturnTask:
         ev = game.step(actions[:, None, :])
         self.elapsed += 1
         hit, landed, goal = read0(ev.hit), read(ev.landed), read(self.goal)
-        reward = SHAPING_GOOD * read0(ev.approach_good) + SHAPING_BAD * read0(ev.approach_bad)
-        reward = reward + R_HIT * hit
+        shaping = SHAPING_GOOD * read0(ev.approach_good) + SHAPING_BAD * read0(ev.approach_bad)
+        reward = shaping + R_HIT * hit
         depth = error = np.nan
-        landed_in = False
+        landed_in, landing = False, 0.0
         if ops.any(landed):
             land_x = read(ev.land_point[:, 0])  # player 0's own frame is the world frame
             depth = ops.where(landed, land_x, np.nan)
@@ -151,13 +151,16 @@ class ReturnTask:
             landed_in = landed & (read(ev.land_side) == 1) & read(ev.land_in)
             scored = landed_in & read0(game.has_hit) & ops.logical_not(read(game.net_touched))
             closeness = ops.exp(-R_DIST_RATE * ops.where(landed, error, 0.0))
-            reward = reward + ops.where(scored, closeness, 0.0)
+            landing = ops.where(scored, closeness, 0.0)
+            reward = reward + landing
         # (without a landing there is nothing to score: adding 0.0 would not change the
         # reward, which never is -0.0)
         truncated = ops.logical_not(landed) & (read(self.elapsed) >= self.max_decisions)
         info = {"hit": hit, "racket_speed": read0(ev.hit_speed), "net_touch": read(ev.net_touch),
                 "landed": landed, "landing_point": ev.land_point, "landing_depth": depth,
-                "landing_error": error, "landed_in": landed_in, "target_depth": goal}
+                "landing_error": error, "landed_in": landed_in, "target_depth": goal,
+                # the reward's terms, which sum to it (Gymnasium's MuJoCo v5 habit)
+                "reward_shaping": shaping, "reward_hit": R_HIT * hit, "reward_landing": landing}
         return reward, landed, truncated, info
 
 
