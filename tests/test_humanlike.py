@@ -358,3 +358,41 @@ def test_clipping_truncation_and_autoreset_info():
 def test_joint_and_group_tables_agree():
     assert len(JOINTS) == 8 and N_ACTIONS == 15
     assert np.bincount(JOINT_GROUP).tolist() == [1, 1, 3, 1, 2]
+
+
+def test_one_player_float_path_matches_the_array_code_bit_for_bit():
+    """N = P = 1 steps and observes on Python floats (``_one`` methods); the array code on the
+    same states gives the same bits, signed zeros included."""
+    from rallysim.envs import humanlike_obs
+
+    rng = np.random.default_rng(0)
+    floats, arrays = HumanLikeBodies(1, 1), HumanLikeBodies(1, 1)
+    arrays._one = False
+    for k in range(600):
+        if k % 200 == 0:
+            start = (rng.uniform(-6, -1, (1, 1)), rng.uniform(-2, 2, (1, 1, 8)),
+                     rng.uniform(-2, 2, (1, 1)))
+            for b in (floats, arrays):
+                b.reset(np.array([0]), *start)
+        if k % 5 == 0:
+            a = rng.uniform(-1, 1, (1, 1, N_ACTIONS))
+            a[..., 10:] = np.where(rng.random(5) < 0.3, rng.choice([-1.0, 0.0, 1.0], 5),
+                                   a[..., 10:])
+            for b in (floats, arrays):
+                b.set_actions(a)
+        for b in (floats, arrays):
+            b.physics_step()
+        for name in ("qpos", "qvel", "torque", "_side", "hips", "hips_velocity", "base_moved",
+                     "_mocap", "_face_pos"):
+            assert getattr(floats, name).tobytes() == getattr(arrays, name).tobytes(), (k, name)
+
+    env = HumanLikeReturnEnv()
+    env.reset(seed=3)
+    for _ in range(200):
+        _, _, terminated, truncated, _ = env.step(rng.uniform(-1, 1, N_ACTIONS))
+        game = env.task.game
+        one = humanlike_obs.player_observations(game)
+        batch = humanlike_obs._player_observations_arrays(game, game.bodies)
+        assert one.shape == batch.shape and one.tobytes() == batch.tobytes()
+        if terminated or truncated:
+            env.reset()

@@ -139,6 +139,8 @@ def sample_serve(u: np.ndarray, receiver: np.ndarray) -> tuple[np.ndarray, np.nd
     Returns world-frame positions and velocities, (n, 3) each. Taking uniforms rather than a
     generator lets every environment draw from its own stream."""
     n = len(receiver)
+    if n == 1:  # one game: the same operations on Python floats
+        return _sample_serve_one(u.reshape(4).tolist(), float(FORWARD[receiver[0]]))
     x0 = SERVE_X[0] + u[:, 0] * (SERVE_X[1] - SERVE_X[0])
     z0 = SERVE_Z[0] + u[:, 1] * (SERVE_Z[1] - SERVE_Z[0])
     t = (x0 - SERVE_X[0]) / (SERVE_X[1] - SERVE_X[0])
@@ -151,6 +153,23 @@ def sample_serve(u: np.ndarray, receiver: np.ndarray) -> tuple[np.ndarray, np.nd
     pos = np.stack([f * x0, np.zeros(n), z0], axis=1)
     vel = SERVE_SPEED_SCALE * s[:, None] * np.stack([-f * np.cos(phi), np.zeros(n), np.sin(phi)], 1)
     return pos, vel
+
+
+def _sample_serve_one(u: list[float], f: float) -> tuple[np.ndarray, np.ndarray]:
+    """``sample_serve`` of one game (uniforms ``u``, receiver's ``FORWARD`` ``f``) on Python
+    floats: (1, 3) arrays."""
+    x0 = SERVE_X[0] + u[0] * (SERVE_X[1] - SERVE_X[0])
+    z0 = SERVE_Z[0] + u[1] * (SERVE_Z[1] - SERVE_Z[0])
+    t = (x0 - SERVE_X[0]) / (SERVE_X[1] - SERVE_X[0])
+    (near_lo, near_hi), (far_lo, _) = map(float, SERVE_ELEVATION_NEAR), SERVE_ELEVATION_FAR
+    phi_lo = near_lo + t * (float(far_lo) - near_lo)
+    phi = phi_lo + u[2] * (near_hi - phi_lo)
+    s_lo = SERVE_SPEED_NEAR[0] + t * (SERVE_SPEED_FAR[0] - SERVE_SPEED_NEAR[0])
+    s_hi = SERVE_SPEED_NEAR[1] + t * (SERVE_SPEED_FAR[1] - SERVE_SPEED_NEAR[1])
+    speed = SERVE_SPEED_SCALE * (s_lo + u[3] * (s_hi - s_lo))
+    return (np.array([[f * x0, 0.0, z0]]),
+            np.array([[speed * (-f * float(np.cos(phi))), speed * 0.0,
+                       speed * float(np.sin(phi))]]))
 
 
 def segment_box_entry(
