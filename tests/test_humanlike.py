@@ -363,7 +363,7 @@ def test_joint_and_group_tables_agree():
 def test_one_player_float_path_matches_the_array_code_bit_for_bit():
     """N = P = 1 steps and observes on Python floats (``_one`` methods); the array code on the
     same states gives the same bits, signed zeros included."""
-    from rallysim.envs import humanlike_obs
+    from rallysim.core import humanlike_obs
 
     rng = np.random.default_rng(0)
     floats, arrays = HumanLikeBodies(1, 1), HumanLikeBodies(1, 1)
