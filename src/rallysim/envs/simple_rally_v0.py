@@ -102,15 +102,15 @@ PER_PLAYER_INFO = ("hit", "racket_speed", "hit_point")
 SCORE_INFO = ("score",)
 
 
-def _obs_space(spec: PlayerSpec = SIMPLE) -> spaces.Box:
+def _obs_space(spec: PlayerSpec) -> spaces.Box:
     return spaces.Box(-1.0, 1.0, (spec.rally_obs.size,), np.float32)
 
 
-def _act_space(spec: PlayerSpec = SIMPLE) -> spaces.Box:
+def _act_space(spec: PlayerSpec) -> spaces.Box:
     return spaces.Box(-1.0, 1.0, (spec.action.size,), np.float32)
 
 
-def _goal_space(spec: PlayerSpec = SIMPLE) -> spaces.Box:
+def _goal_space(spec: PlayerSpec) -> spaces.Box:
     if spec.goal.size == 1:
         return spaces.Box(*TARGET_DEPTH_RANGE, (1,), np.float32)
     return spaces.Box(-1.0, 1.0, (spec.goal.size,), np.float32)
@@ -321,12 +321,12 @@ class SimpleRallyVectorEnv(NativeVectorEnv):
         self._view = EnvView(render_mode, n_players=2, player=self.player_spec.name)
         self._views = [self._view]
         self.task = RallyTask(self.num_units, rally_config(self, config), seed, self.player_spec)
-        self.single_observation_space = _obs_space(self.player_spec)
-        self.single_action_space = _act_space(self.player_spec)
-        self.observation_space = spaces.Box(-1.0, 1.0, (self.num_envs, self.player_spec.rally_obs.size),
+        spec = self.player_spec
+        self.single_observation_space = _obs_space(spec)
+        self.single_action_space = _act_space(spec)
+        self.observation_space = spaces.Box(-1.0, 1.0, (self.num_envs, spec.rally_obs.size),
                                             np.float32)
-        self.action_space = spaces.Box(-1.0, 1.0, (self.num_envs, self.player_spec.action.size),
-                                       np.float32)
+        self.action_space = spaces.Box(-1.0, 1.0, (self.num_envs, spec.action.size), np.float32)
 
     def _seed_units(self, seeds: list[int]) -> None:
         self.task.game.seed_each(seeds)
@@ -457,12 +457,13 @@ class SimpleRallyTurnVectorEnv(NativeVectorEnv):
         self._views = [self._view]
         self.turns = TurnTask(self.num_units, low_level, cfg, seed, player=self.player_spec)
         self.decisions_simulated = 0  # low-level decisions run inside all turns so far
-        goal = _goal_space(self.player_spec)
-        self.single_observation_space, self.single_action_space = _obs_space(self.player_spec), goal
-        self.observation_space = spaces.Box(-1.0, 1.0, (self.num_envs, self.player_spec.rally_obs.size),
+        spec = self.player_spec
+        goal = _goal_space(spec)
+        self.single_observation_space, self.single_action_space = _obs_space(spec), goal
+        self.observation_space = spaces.Box(-1.0, 1.0, (self.num_envs, spec.rally_obs.size),
                                             np.float32)
         self.action_space = spaces.Box(goal.low[0], goal.high[0],
-                                       (self.num_envs, self.player_spec.goal.size), np.float32)
+                                       (self.num_envs, spec.goal.size), np.float32)
 
     def _seed_units(self, seeds: list[int]) -> None:
         self.turns.seed(seeds)

@@ -52,9 +52,10 @@ value per environment.
 ``hit``, ``racket_speed`` (m/s at the hit, else 0), ``net_touch``, ``landed``,
 ``landing_point`` (world, m), ``landing_depth`` (m beyond the net), ``landing_error``
 (abs(depth - d*)), ``landed_in``, ``target_depth``, and the reward's three terms every step,
-which sum to it: ``reward_shaping``, ``reward_hit``, ``reward_landing``. The single env gives ``racket_speed`` only on
-a hit and the landing keys only at the landing; the vector env gives arrays for all keys, with
-NaN where a value does not apply and Gymnasium's ``_key`` masks marking where it does.
+which sum to it: ``reward_shaping``, ``reward_hit``, ``reward_landing``. The single env gives
+``racket_speed`` only on a hit and the landing keys only at the landing; the vector env gives
+arrays for all keys, with NaN where a value does not apply and Gymnasium's ``_key`` masks
+marking where it does.
 
 ## Version history
 - v1: ``goals="reachable"``. Over 1,000 fresh serves only 39 % of v0's U[2, 6] m goals can be
