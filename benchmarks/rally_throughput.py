@@ -22,7 +22,8 @@ from collections.abc import Callable
 import numpy as np
 
 from rallysim.core.tasks.rally import RallyTask
-from rallysim.envs.simple_rally_v0 import SimpleRallyTurnVectorEnv, SimpleRallyVectorEnv
+from rallysim.envs.simple_rally_turn_v0 import SimpleRallyTurnVectorEnv
+from rallysim.envs.simple_rally_v0 import SimpleRallyVectorEnv
 from rallysim.envs.simple_return_v0 import SimpleReturnVectorEnv
 from rallysim.policies import ScriptedController
 

@@ -20,7 +20,12 @@ import gymnasium as gym
 import numpy as np
 
 import rallysim  # noqa: F401  (registers the env ids)
-from rallysim.envs import humanlike_rally_v0, simple_rally_v0
+from rallysim.envs import (
+    humanlike_rally_turn_v0,
+    humanlike_rally_v0,
+    simple_rally_turn_v0,
+    simple_rally_v0,
+)
 
 GOLDEN_FILE = Path(__file__).with_name("data") / "golden.json"
 SHUTTLES = ("paper", "paper-alg1", "aero")
@@ -146,19 +151,21 @@ def views() -> Iterator[View]:
         yield View(f"HumanLikeReturn-v0/vector/{s}", "vector",
                    lambda s=s: gym.make_vec("RallySim/HumanLikeReturn-v0", num_envs=8,
                                             shuttle=s))
-        for name, mod, vec, turn_vec, turn_single in (
+        # (the turn views keep the names they had while they lived in the rally modules)
+        for name, mod, vec, turn, turn_vec, turn_single in (
                 ("simple_rally_v0", simple_rally_v0, simple_rally_v0.SimpleRallyVectorEnv,
-                 simple_rally_v0.SimpleRallyTurnVectorEnv, simple_rally_v0.SimpleRallyTurnEnv),
+                 simple_rally_turn_v0, simple_rally_turn_v0.SimpleRallyTurnVectorEnv,
+                 simple_rally_turn_v0.SimpleRallyTurnEnv),
                 ("humanlike_rally_v0", humanlike_rally_v0,
-                 humanlike_rally_v0.HumanLikeRallyVectorEnv,
-                 humanlike_rally_v0.HumanLikeRallyTurnVectorEnv,
-                 humanlike_rally_v0.HumanLikeRallyTurnEnv)):
+                 humanlike_rally_v0.HumanLikeRallyVectorEnv, humanlike_rally_turn_v0,
+                 humanlike_rally_turn_v0.HumanLikeRallyTurnVectorEnv,
+                 humanlike_rally_turn_v0.HumanLikeRallyTurnEnv)):
             turns = TURN_STEPS[name]
             for mode in ("cooperative", "competitive"):
                 yield View(f"{name}/parallel/{s}/{mode}", "parallel",
                            lambda s=s, m=mod, mode=mode: m.parallel_env(shuttle=s, mode=mode))
                 yield View(f"{name}/turn_aec/{s}/{mode}", "aec",
-                           lambda s=s, m=mod, mode=mode: m.turn_env(shuttle=s, mode=mode), turns)
+                           lambda s=s, t=turn, mode=mode: t.raw_env(shuttle=s, mode=mode), turns)
             yield View(f"{name}/vector/{s}", "vector", lambda s=s, v=vec: v(4, shuttle=s))
             yield View(f"{name}/turn_vector/{s}", "vector",
                        lambda s=s, v=turn_vec: v(4, shuttle=s), turns)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from rallysim.envs import simple_rally_v0
+from rallysim.envs import simple_rally_turn_v0, simple_rally_v0
 from rallysim.envs.simple_return_v0 import SimpleReturnEnv, SimpleReturnVectorEnv
 from tests.conftest import gl_problem
 
@@ -36,7 +36,7 @@ def test_every_view_renders_rgb_frames():
     par = simple_rally_v0.parallel_env(render_mode="rgb_array")
     par.reset(seed=0)
     looks_like_a_scene(par.render())
-    turn = simple_rally_v0.turn_env(render_mode="rgb_array")
+    turn = simple_rally_turn_v0.raw_env(render_mode="rgb_array")
     turn.reset(seed=0)
     turn.step(np.array([3.0]))
     looks_like_a_scene(turn.render())

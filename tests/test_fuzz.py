@@ -19,7 +19,9 @@ from safetensors.numpy import load_file, save_file
 from test_cli_errors import bad_input_templates
 
 from rallysim.core.tasks.rally import RallyConfig
+from rallysim.envs import humanlike_rally_turn_v0 as hrt
 from rallysim.envs import humanlike_rally_v0 as hr
+from rallysim.envs import simple_rally_turn_v0 as srt
 from rallysim.envs import simple_rally_v0 as sr
 from rallysim.envs.humanlike_return_v0 import HumanLikeReturnEnv, HumanLikeReturnVectorEnv
 from rallysim.envs.simple_return_v0 import SimpleReturnEnv, SimpleReturnVectorEnv
@@ -148,9 +150,9 @@ RESET_ENVS: dict[str, Callable[[], Any]] = {
     "HumanLikeReturn/single": HumanLikeReturnEnv,
     "HumanLikeReturn/vector": lambda: HumanLikeReturnVectorEnv(2),
     "simple_rally/vector": lambda: sr.SimpleRallyVectorEnv(2),
-    "simple_rally/turn_vector": lambda: sr.SimpleRallyTurnVectorEnv(2),
-    "humanlike_rally/turn_vector": lambda: hr.HumanLikeRallyTurnVectorEnv(2),
-    "SimpleRallyTurn/single": sr.SimpleRallyTurnEnv,
+    "simple_rally/turn_vector": lambda: srt.SimpleRallyTurnVectorEnv(2),
+    "humanlike_rally/turn_vector": lambda: hrt.HumanLikeRallyTurnVectorEnv(2),
+    "SimpleRallyTurn/single": srt.SimpleRallyTurnEnv,
 }
 
 
@@ -226,7 +228,7 @@ BAD_CONFIGS = [
 ]
 CONSTRUCTORS: dict[str, Callable[..., Any]] = {
     "RallyConfig": RallyConfig, "simple_rally.parallel_env": sr.parallel_env,
-    "simple_rally.turn_env": sr.turn_env, "humanlike_rally.parallel_env": hr.parallel_env,
+    "simple_rally.turn_env": srt.raw_env, "humanlike_rally.parallel_env": hr.parallel_env,
     "SimpleRallyVectorEnv": lambda **kw: sr.SimpleRallyVectorEnv(2, **kw),
 }
 ENV_ARGS: list[tuple[Callable[..., Any], dict[str, Any]]] = [
@@ -241,13 +243,13 @@ ENV_ARGS: list[tuple[Callable[..., Any], dict[str, Any]]] = [
     (SimpleReturnEnv, {"target_depth_range": (5.0, 3.0)}),
     (SimpleReturnEnv, {"target_depth_range": (1.0, 3.0)}),
     (SimpleReturnEnv, {"incoming": "volley"}),
-    *[(make, {"low_level": v}) for make in (sr.turn_env, hr.turn_env,
-                                            sr.SimpleRallyTurnVectorEnv)
+    *[(make, {"low_level": v}) for make in (srt.raw_env, hrt.raw_env,
+                                            srt.SimpleRallyTurnVectorEnv)
       for v in ("teacher", 5, None, "")],
     (lambda **kw: SimpleReturnVectorEnv(2, **kw), {"seed": -1}),
     (lambda **kw: SimpleReturnVectorEnv(2, **kw), {"seed": 1.5}),
     (lambda **kw: sr.SimpleRallyVectorEnv(2, **kw), {"autoreset_mode": "sometimes"}),
-    (sr.SimpleRallyTurnVectorEnv, {"mode": "competitive"}),
+    (srt.SimpleRallyTurnVectorEnv, {"mode": "competitive"}),
     *[(make, {"shuttle": v}) for make in (SimpleReturnEnv, HumanLikeReturnEnv, RallyConfig)
       for v in (["paper"], {}, 0)],
     *[(SimpleReturnEnv, {"target_depth_range": v}) for v in (None, ("3", "4"), (3.0,),
@@ -405,7 +407,7 @@ class _NaNForRally:
 def test_a_nan_low_level_is_refused_before_any_rally_moves():
     """MuJoCo resets the whole batch on a NaN: the turn view refuses it before the physics, so
     rally 0 (whose actions were fine) is untouched too."""
-    env = sr.SimpleRallyTurnVectorEnv(3, low_level=_NaNForRally())
+    env = srt.SimpleRallyTurnVectorEnv(3, low_level=_NaNForRally())
     env.reset(seed=0)
     before = pickle.dumps(env)
     with pytest.raises(ValueError, match=r"low level .* non-finite"):
@@ -426,7 +428,7 @@ def test_game_refuses_non_finite_actions_from_any_caller():
     assert pickle.dumps(game) == before
 
 
-@pytest.mark.parametrize("make", [sr.parallel_env, sr.turn_env])
+@pytest.mark.parametrize("make", [sr.parallel_env, srt.raw_env])
 def test_pettingzoo_views_ignore_odd_option_keys_silently(make):
     # PettingZoo's own api_test resets with made-up options, so they are ignored, not refused
     env = make()

@@ -14,14 +14,11 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 import rallysim  # noqa: F401  (registers the envs)
-from rallysim.envs.humanlike_rally_v0 import HumanLikeRallyTurnEnv, HumanLikeRallyTurnVectorEnv
+from rallysim.envs.humanlike_rally_turn_v0 import HumanLikeRallyTurnEnv, HumanLikeRallyTurnVectorEnv
 from rallysim.envs.registration import HUMANLIKE_RALLY_TURN_ID, SIMPLE_RALLY_TURN_V1_ID
+from rallysim.envs.simple_rally_turn_v0 import SimpleRallyTurnEnv, SimpleRallyTurnVectorEnv
 from rallysim.envs.simple_rally_turn_v1 import SimpleRallyTurnV1Env, SimpleRallyTurnV1VectorEnv
-from rallysim.envs.simple_rally_v0 import (
-    SimpleRallyTurnEnv,
-    SimpleRallyTurnVectorEnv,
-    SimpleRallyVectorEnv,
-)
+from rallysim.envs.simple_rally_v0 import SimpleRallyVectorEnv
 from rallysim.envs.simple_return_v0 import SimpleReturnVectorEnv
 from tests.conftest import check_seeded_and_batched, gl_problem
 

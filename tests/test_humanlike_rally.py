@@ -7,6 +7,7 @@ import pytest
 from pettingzoo.test import api_test, parallel_api_test
 
 from rallysim.core.tasks.rally import RallyConfig, RallyTask
+from rallysim.envs import humanlike_rally_turn_v0 as hrt
 from rallysim.envs import humanlike_rally_v0 as hr
 from rallysim.eval.rally_eval import rally_lengths_turns
 from rallysim.players import HUMANLIKE
@@ -32,9 +33,9 @@ def test_spaces_and_pettingzoo_api():
     assert env.observation_space("player_0").shape == (86,)
     assert env.action_space("player_1").shape == (15,)
     parallel_api_test(hr.parallel_env(), num_cycles=50)
-    aec = hr.turn_env()
+    aec = hrt.raw_env()
     assert aec.action_space("player_0").shape == (3,)
-    api_test(hr.turn_env(), num_cycles=3)
+    api_test(hrt.raw_env(), num_cycles=3)
 
 
 def test_serve_and_start_mirror_for_player_one():
@@ -70,7 +71,7 @@ def test_centre_goal_rallies_to_the_cap_and_random_goals_do_not():
 
 
 def test_turn_spans_and_competitive_scoring():
-    env = hr.turn_env(mode="competitive", points_to_win=2, win_by=1)
+    env = hrt.raw_env(mode="competitive", points_to_win=2, win_by=1)
     env.reset(seed=2)
     for _ in range(400):
         agent = env.agent_selection
@@ -85,7 +86,7 @@ def test_turn_spans_and_competitive_scoring():
 
 
 def test_vector_views_and_bad_goals():
-    venv = hr.HumanLikeRallyTurnVectorEnv(4, seed=0)
+    venv = hrt.HumanLikeRallyTurnVectorEnv(4, seed=0)
     obs, _ = venv.reset(seed=0)
     assert obs.shape == (4, 86)
     _, reward, _, _, info = venv.step(np.zeros((4, 3)))

@@ -28,12 +28,25 @@ from pettingzoo.test import (
 from pettingzoo.utils.conversions import aec_to_parallel
 from pettingzoo.utils.wrappers import OrderEnforcingWrapper
 
-from rallysim.envs import humanlike_rally_v0, simple_rally_v0
+from rallysim.envs import (
+    humanlike_rally_turn_v0,
+    humanlike_rally_v0,
+    simple_rally_turn_v0,
+    simple_rally_v0,
+)
 
 MODULES = [simple_rally_v0, humanlike_rally_v0]
 IDS = ["simple", "humanlike"]
 OBS_SIZE = {simple_rally_v0: 20, humanlike_rally_v0: 86}
 modules = pytest.mark.parametrize("mod", MODULES, ids=IDS)
+# each rally module's goal-level turn game, a module of its own
+TURN = {simple_rally_v0: simple_rally_turn_v0, humanlike_rally_v0: humanlike_rally_turn_v0}
+
+
+def _maker(mod: ModuleType, make: str) -> Callable[..., Any]:
+    """A view's constructor: the rally module's ``make``, or for ``"turn_env"`` the turn
+    module's ``env``."""
+    return TURN[mod].env if make == "turn_env" else getattr(mod, make)
 
 
 def _strict(check: Callable[[], Any]) -> None:
@@ -54,7 +67,9 @@ PETTINGZOO_TESTS: dict[str, Callable[[ModuleType], Any]] = {
     "max_cycles_test": max_cycles_test,
     # state_test also runs its parallel check (test_parallel_env) on the parallel env
     "state_test": lambda m: state_test(m.env(), m.parallel_env(), num_cycles=10),
-    "state_test/turn_env": lambda m: state_test(m.turn_env(), m.parallel_env(), num_cycles=2),
+    "api_test/turn_env": lambda m: api_test(TURN[m].env(), num_cycles=20),
+    "seed_test/turn_env": lambda m: seed_test(TURN[m].env, num_cycles=5),
+    "state_test/turn_env": lambda m: state_test(TURN[m].env(), m.parallel_env(), num_cycles=2),
 }
 
 
@@ -75,7 +90,7 @@ def test_render_test_with_rgb_array(mod, make):
         # render_test makes and plays every listed mode; "human" would open a window (or, with
         # no display, be refused), so it gets no rendering: render() is then None, as
         # render_test requires of "human"
-        return getattr(mod, make)(render_mode="rgb_array" if render_mode == "rgb_array" else None)
+        return _maker(mod, make)(render_mode="rgb_array" if render_mode == "rgb_array" else None)
 
     def is_a_scene(frame: np.ndarray) -> bool:
         return frame.shape == (360, 640, 3) and frame.std() > 20  # a drawn court, not blank
@@ -94,12 +109,47 @@ def test_env_is_raw_env_in_the_order_enforcing_wrapper(mod):
         _ = env.agent_selection
     assert env.metadata["is_parallelizable"] is True
     assert mod.raw_env.metadata["is_parallelizable"] is True
-    assert mod.turn_env().metadata["is_parallelizable"] is False
     assert str(env) == mod.__name__.rsplit(".", 1)[1]
     # PettingZoo's own conversion gives back the very parallel env under the AEC view
     par = aec_to_parallel(env)
     assert type(par) is type(mod.parallel_env()) and par is env.unwrapped
 
+
+
+@modules
+def test_the_turn_game_is_a_module_of_its_own(mod):
+    turn = TURN[mod]
+    env = turn.env()
+    assert isinstance(env, OrderEnforcingWrapper) and isinstance(env.env, turn.raw_env)
+    assert str(env) == turn.__name__.rsplit(".", 1)[1] == turn.raw_env.metadata["name"]
+    assert env.metadata["is_parallelizable"] is False
+    assert not hasattr(turn, "parallel_env")  # players act in turns: no parallel view
+    with pytest.raises(AttributeError, match="before reset"):
+        _ = env.agent_selection
+    # the same game as the raw env, step for step
+    goal = 4.0 if mod is simple_rally_v0 else np.zeros(3)
+    raw = turn.raw_env()
+    for e in (env, raw):
+        e.reset(seed=3)
+        for _ in range(3):
+            e.step(goal)
+    assert env.rewards == raw.rewards and env.infos["player_0"]["decisions"] == \
+        raw.infos["player_0"]["decisions"] > 0
+    assert np.array_equal(env.observe("player_0"), raw.observe("player_0"))
+
+
+@modules
+@pytest.mark.parametrize("old", ["turn_env", "TurnAECEnv", "TurnVectorEnv", "TurnEnv"])
+def test_the_turn_games_old_names_warn_and_give_the_new_ones(mod, old):
+    turn = TURN[mod]
+    prefix = "SimpleRally" if mod is simple_rally_v0 else "HumanLikeRally"
+    name = old if old == "turn_env" else prefix + old
+    with pytest.warns(DeprecationWarning, match=f"{mod.__name__}.{name} is deprecated: use "
+                                                f"{turn.__name__}."):
+        value = getattr(mod, name)
+    assert value is (turn.raw_env if old == "turn_env" else getattr(turn, name))
+    with pytest.raises(AttributeError, match="has no attribute 'turn_envs'"):
+        _ = mod.turn_envs
 
 def _play_parallel(env: Any, seed: int, actions: np.ndarray) -> list[Any]:
     obs, _ = env.reset(seed=seed)
@@ -222,7 +272,7 @@ def test_aec_max_cycles_truncates_both_players_after_that_many_cycles(mod):
 @modules
 def test_turn_max_cycles_counts_turns(mod):
     goal = 4.0 if mod is simple_rally_v0 else np.zeros(3)
-    env = mod.turn_env(max_cycles=3)
+    env = TURN[mod].env(max_cycles=3)
     env.reset(seed=0)
     truncated = []
     for _ in range(3):
@@ -231,7 +281,7 @@ def test_turn_max_cycles_counts_turns(mod):
     both = {"player_0": True, "player_1": True}
     assert truncated == [{"player_0": False, "player_1": False}] * 2 + [both]
     assert not any(env.terminations.values())
-    free = mod.turn_env()  # this rally goes on for 50 hits without the limit
+    free = TURN[mod].env()  # this rally goes on for 50 hits without the limit
     free.reset(seed=0)
     for _ in range(3):
         free.step(goal)
@@ -249,7 +299,7 @@ def test_max_cycles_default_leaves_the_episode_unchanged():
 @pytest.mark.parametrize("make", ["parallel_env", "env", "turn_env"])
 def test_bad_max_cycles_is_refused(make, value):
     with pytest.raises(ValueError, match="max_cycles must be an integer >= 1"):
-        getattr(simple_rally_v0, make)(max_cycles=value)
+        _maker(simple_rally_v0, make)(max_cycles=value)
 
 
 def test_unknown_arguments_are_refused_by_name():
@@ -258,7 +308,7 @@ def test_unknown_arguments_are_refused_by_name():
                                         r"arguments: render_mode, max_cycles, shuttle, .*max_hits"):
         simple_rally_v0.parallel_env(max_hit=3)
     with pytest.raises(TypeError, match=r"'low_levl'; valid arguments: low_level, "):
-        simple_rally_v0.turn_env(low_levl="scripted")
+        simple_rally_turn_v0.env(low_levl="scripted")
     # the Gymnasium views limit episodes with Gymnasium's TimeLimit, not max_cycles
     with pytest.raises(TypeError, match="'max_cycles'; valid arguments: num_rallies, "):
         simple_rally_v0.SimpleRallyVectorEnv(2, max_cycles=5)
@@ -286,7 +336,7 @@ def test_torchrl_gym_env_opens_the_turn_ids(env_id, goal_size):
 @modules
 @pytest.mark.parametrize("make", ["parallel_env", "env", "turn_env"])
 def test_state_has_the_state_space_shape_and_dtype_and_lies_in_it(mod, make):
-    env = getattr(mod, make)()
+    env = _maker(mod, make)()
     space = env.state_space
     assert space.shape == (OBS_SIZE[mod],) and space.dtype == np.float32
     assert np.all(space.low == -1.0) and np.all(space.high == 1.0)
@@ -310,7 +360,7 @@ def test_state_has_the_state_space_shape_and_dtype_and_lies_in_it(mod, make):
 @modules
 @pytest.mark.parametrize("make", ["parallel_env", "env", "turn_env"])
 def test_reset_options_none_and_empty_are_silent_and_others_ignored(mod, make):
-    env = getattr(mod, make)()
+    env = _maker(mod, make)()
 
     def first_obs(options: Any) -> np.ndarray:
         out = env.reset(seed=6, options=options)

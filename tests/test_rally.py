@@ -6,15 +6,15 @@ from pettingzoo.test import api_test, parallel_api_test, parallel_seed_test, see
 
 from rallysim.core.tasks.rally import RallyConfig, RallyTask
 from rallysim.core.tasks.turns import TurnTask
-from rallysim.envs import simple_rally_v0
+from rallysim.envs import simple_rally_turn_v0, simple_rally_v0
 from rallysim.policies import ScriptedController
 
 
 def test_pettingzoo_api_and_seed_tests():
     parallel_api_test(simple_rally_v0.parallel_env(), num_cycles=300)
     parallel_seed_test(simple_rally_v0.parallel_env, num_cycles=100)
-    api_test(simple_rally_v0.turn_env(), num_cycles=30, verbose_progress=False)
-    seed_test(simple_rally_v0.turn_env, num_cycles=20)
+    api_test(simple_rally_turn_v0.raw_env(), num_cycles=30, verbose_progress=False)
+    seed_test(simple_rally_turn_v0.raw_env, num_cycles=20)
 
 
 def test_start_positions_serve_and_observation_layout():
@@ -116,7 +116,7 @@ def test_mirror_symmetry_of_observations():
 
 
 def test_turn_step_spans_exactly_until_the_next_turn():
-    env = simple_rally_v0.turn_env(low_level="scripted")
+    env = simple_rally_turn_v0.raw_env(low_level="scripted")
     env.reset(seed=3)
     # replay the same rally at the physics rate to find when each hit happens
     task = RallyTask(1, seed=3)
@@ -220,7 +220,7 @@ def test_competitive_win_by_two_and_cap():
 
 
 def test_competitive_turn_env_rewards_are_zero_sum():
-    env = simple_rally_v0.turn_env(low_level="random", mode="competitive", points_to_win=2,
+    env = simple_rally_turn_v0.raw_env(low_level="random", mode="competitive", points_to_win=2,
                                    max_points=3)
     env.reset(seed=0)
     totals = {"player_0": 0.0, "player_1": 0.0}
@@ -238,7 +238,7 @@ def test_vector_views():
     obs, r, term, trunc, _ = vec.step(np.zeros((6, 3)))
     assert r.shape == (6,) and np.array_equal(term[0::2], term[1::2])
     assert np.array_equal(trunc[0::2], trunc[1::2])
-    turn = simple_rally_v0.SimpleRallyTurnVectorEnv(4, seed=0)
+    turn = simple_rally_turn_v0.SimpleRallyTurnVectorEnv(4, seed=0)
     obs, _ = turn.reset(seed=0)
     assert obs.shape == (4, 20) and np.all(obs[:, 19] == 1.0)  # the turn player is armed
     obs, r, term, _trunc, info = turn.step(np.full((4, 1), 4.0))
@@ -253,7 +253,6 @@ def test_vector_views():
 def test_random_low_level_is_reseeded_by_reset():
     """``low_level="random"`` restarts its stream with ``reset(seed)``: the same seed replays
     the same turn episode (it did not before: the low level kept drawing where it was)."""
-    from rallysim.envs import simple_rally_v0
 
     def episode(env) -> list[float]:
         env.reset(seed=21)
@@ -266,6 +265,6 @@ def test_random_low_level_is_reseeded_by_reset():
             out += [float(v) for a in env.agents for v in env.observe(a)]
         return out
 
-    env = simple_rally_v0.turn_env(low_level="random")
+    env = simple_rally_turn_v0.raw_env(low_level="random")
     first = episode(env)
     assert episode(env) == first and len(first) >= 1

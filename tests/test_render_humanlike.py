@@ -278,7 +278,7 @@ def test_record_rally_draws_the_seeded_3d_rally(monkeypatch):
     hits in 210 decisions), a frame before each decision and one at the end, both players
     drawn where the game has them, and the goals' arrows."""
     from rallysim.core.tasks.turn_loop import TurnLoop
-    from rallysim.envs.humanlike_rally_v0 import HumanLikeRallyTurnEnv
+    from rallysim.envs.humanlike_rally_turn_v0 import HumanLikeRallyTurnEnv
     from rallysim.eval.humanlike_eval import rally_goals
     from rallysim.render.record import record_rally
 

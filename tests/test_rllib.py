@@ -18,7 +18,8 @@ from ray.rllib.core.columns import Columns
 from ray.rllib.utils.pre_checks.env import check_multiagent_environments
 
 from rallysim.cli import main
-from rallysim.envs.simple_rally_v0 import AGENTS, parallel_env, turn_env
+from rallysim.envs.simple_rally_turn_v0 import raw_env as turn_env
+from rallysim.envs.simple_rally_v0 import AGENTS, parallel_env
 from rallysim.envs.simple_return_v0 import SimpleReturnEnv, SimpleReturnVectorEnv
 from rallysim.policies.mlp import load_policy
 from rallysim.rllib.envs import RallyMultiAgentEnv, TurnRallyMultiAgentEnv, make_return_env

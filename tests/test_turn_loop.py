@@ -82,10 +82,10 @@ def high_level(player: str, seed: int):
 
 def turn_env(player: str, low: str):
     if player == "simple":
-        from rallysim.envs.simple_rally_v0 import SimpleRallyTurnEnv
+        from rallysim.envs.simple_rally_turn_v0 import SimpleRallyTurnEnv
 
         return SimpleRallyTurnEnv(low_level=low)
-    from rallysim.envs.humanlike_rally_v0 import HumanLikeRallyTurnEnv
+    from rallysim.envs.humanlike_rally_turn_v0 import HumanLikeRallyTurnEnv
 
     return HumanLikeRallyTurnEnv(low_level=low)
 

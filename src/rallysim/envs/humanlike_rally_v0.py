@@ -1,15 +1,14 @@
 """``humanlike_rally_v0``: two HUMAN-LIKE players rally in 3-D, the rally the paper never reached.
 
 The same views as ``simple_rally_v0``, over ``RallyTask`` with the HUMAN-LIKE player spec (the
-same rulebook with the HUMAN-LIKE bodies of SPEC §10):
+same rulebook with the HUMAN-LIKE bodies of SPEC §10). The goal-level turn game is its own
+module, ``humanlike_rally_turn_v0`` (``RallySim/HumanLikeRallyTurn-v0``).
 
 | view | what |
 |---|---|
 | ``parallel_env(**kw)`` | PettingZoo ``ParallelEnv``; both players act every decision (0.1 s) |
 | ``env(**kw)`` / ``raw_env(**kw)`` | PettingZoo ``AECEnv``: the same rally, ``player_0`` then ``player_1`` each give the decision's action (``env`` adds PettingZoo's ``OrderEnforcingWrapper``) |
 | ``HumanLikeRallyVectorEnv(num_rallies, **kw)`` | Gymnasium ``VectorEnv``, one slot per rally-player pair (2N slots) |
-| ``turn_env(low_level=..., **kw)`` | PettingZoo ``AECEnv``; the acting agent is the player whose turn just began; its action is its goal for the frozen low level |
-| ``HumanLikeRallyTurnEnv`` / ``HumanLikeRallyTurnVectorEnv`` (``RallySim/HumanLikeRallyTurn-v0``, single / vector) | single-agent Gymnasium view of the turn game (cooperative), one shared high-level policy |
 
 ## Players, actions, observations
 Agents ``"player_0"`` (receives the first serve) and ``"player_1"``. Each acts like the
@@ -29,26 +28,18 @@ task's HUMAN-LIKE serve, to player 0. After a hit the shuttle leaves along the r
 at min(60, 5 |v|) m/s (SPEC §10). Everything else (arming, net, landing, the cooperative +0.2
 per hit and 50-hit cap, competitive badminton scoring) is ``simple_rally_v0``'s; see there.
 
-## Turn-based view: the high level's 3-D goal
-``turn_env(low_level, **kw)``: the player whose turn has just begun picks a goal, ``Box(-1, 1,
-(3,))``, mapped onto the low level's target racket velocity: speed 1.5 + 1.5 (g0 + 1) m/s
-(1.5-4.5), elevation 40 + 5 (g1 + 1) degrees (40-50), azimuth 30 g2 degrees (-30-30, toward +y
-for positive g2), own frame. The goal is held until the player's next turn; both players' low
-levels act every decision; one step covers the span to the next turn (``infos[agent]
-["decisions"]`` gives its length). ``low_level``: ``"scripted"`` (``AimedSwing``, the default),
-``"random"``, ``"pretrained"``, a path prefix of an exported ``HumanLikeReturn-v0`` policy, or a
-callable ``(observations (M, 86), goals (M, 3)) -> actions (M, 15)``.
-
 ## PettingZoo conventions
 As ``simple_rally_v0``'s: ``max_cycles`` (default None: no limit) truncates every agent on the
 ``max_cycles``-th step after ``reset`` (a decision for ``parallel_env`` and for a cycle of
-``env()``, a turn for ``turn_env``); ``state()`` is player 0's observation, ``state_space``
+``env()``); ``state()`` is player 0's observation, ``state_space``
 ``Box(-1, 1, (86,), float32)`` (the opponent's joints are not in it);
-``metadata["is_parallelizable"]`` is True for ``env()`` / ``raw_env``, False for ``turn_env``;
+``metadata["is_parallelizable"]`` is True for ``env()`` / ``raw_env``;
 reset ``options`` are accepted and ignored silently (a non-dict raises ``ValueError``).
 
 ## Version history
-- v0: first release.
+- v0: first release. Until 0.x the turn game's views (``turn_env``, ``HumanLikeRallyTurnEnv``,
+  ``HumanLikeRallyTurnVectorEnv``, ``HumanLikeRallyTurnAECEnv``) lived here; they are now
+  ``humanlike_rally_turn_v0``'s, and the old names still work with a ``DeprecationWarning``.
 """
 
 from __future__ import annotations
@@ -57,20 +48,16 @@ from typing import Any
 
 from pettingzoo.utils.wrappers import OrderEnforcingWrapper
 
+from rallysim.envs.deprecated import moved
 from rallysim.envs.simple_rally_v0 import (
     SimpleRallyAECEnv,
     SimpleRallyParallelEnv,
-    SimpleRallyTurnAECEnv,
-    SimpleRallyTurnEnv,
-    SimpleRallyTurnVectorEnv,
     SimpleRallyVectorEnv,
 )
 from rallysim.players import HUMANLIKE
-from rallysim.policies.types import LowLevel
 
-__all__ = ["HumanLikeRallyAECEnv", "HumanLikeRallyParallelEnv", "HumanLikeRallyTurnAECEnv",
-           "HumanLikeRallyTurnEnv", "HumanLikeRallyTurnVectorEnv", "HumanLikeRallyVectorEnv",
-           "env", "parallel_env", "raw_env", "turn_env"]
+__all__ = ["HumanLikeRallyAECEnv", "HumanLikeRallyParallelEnv", "HumanLikeRallyVectorEnv",
+           "env", "parallel_env", "raw_env"]
 
 # The SIMPLE views read their player kind's spec; these name HUMAN-LIKE's.
 
@@ -98,25 +85,6 @@ class HumanLikeRallyVectorEnv(SimpleRallyVectorEnv):
     player_spec = HUMANLIKE
 
 
-class HumanLikeRallyTurnAECEnv(SimpleRallyTurnAECEnv):
-    """The turn-based HUMAN-LIKE rally as a PettingZoo ``AECEnv``."""
-
-    metadata = {**SimpleRallyTurnAECEnv.metadata, "name": "humanlike_rally_turn_v0"}
-    player_spec = HUMANLIKE
-
-
-class HumanLikeRallyTurnVectorEnv(SimpleRallyTurnVectorEnv):
-    """N cooperative turn-based HUMAN-LIKE rallies, single-agent: the action is the goal."""
-
-    player_spec = HUMANLIKE
-
-
-class HumanLikeRallyTurnEnv(SimpleRallyTurnEnv):
-    """One cooperative turn-based HUMAN-LIKE rally as a single-agent Gymnasium env."""
-
-    vector_env = HumanLikeRallyTurnVectorEnv
-
-
 def parallel_env(**kwargs: Any) -> HumanLikeRallyParallelEnv:
     """The HUMAN-LIKE rally as a PettingZoo ``ParallelEnv`` (arguments as ``simple_rally_v0``)."""
     return HumanLikeRallyParallelEnv(**kwargs)
@@ -128,6 +96,8 @@ def env(**kwargs: Any) -> OrderEnforcingWrapper:
     return OrderEnforcingWrapper(raw_env(**kwargs))
 
 
-def turn_env(low_level: LowLevel | str = "scripted", **kwargs: Any) -> HumanLikeRallyTurnAECEnv:
-    """The turn-based HUMAN-LIKE rally (PettingZoo AEC) driven by ``low_level``."""
-    return HumanLikeRallyTurnAECEnv(low_level=low_level, **kwargs)
+# The turn game moved to its own module; its old names here still work, with a warning.
+__getattr__ = moved(__name__, "rallysim.envs.humanlike_rally_turn_v0", {
+    "turn_env": "raw_env", "HumanLikeRallyTurnAECEnv": "HumanLikeRallyTurnAECEnv",
+    "HumanLikeRallyTurnVectorEnv": "HumanLikeRallyTurnVectorEnv",
+    "HumanLikeRallyTurnEnv": "HumanLikeRallyTurnEnv"})

@@ -7,11 +7,11 @@ Every id has a single env (``gym.make``) and a native vector env (``gym.make_vec
   ``SimpleReturnVectorEnv``; action ``Box(-1, 1, (3,))``.
 - ``RallySim/HumanLikeReturn-v0``: ``humanlike_return_v0.HumanLikeReturnEnv`` /
   ``HumanLikeReturnVectorEnv``; action ``Box(-1, 1, (15,))``.
-- ``RallySim/SimpleRallyTurn-v0``: ``simple_rally_v0.SimpleRallyTurnEnv`` /
+- ``RallySim/SimpleRallyTurn-v0``: ``simple_rally_turn_v0.SimpleRallyTurnEnv`` /
   ``SimpleRallyTurnVectorEnv``; action the goal depth in metres, ``Box(2, 6, (1,))``.
 - ``RallySim/SimpleRallyTurn-v1``: ``simple_rally_turn_v1.SimpleRallyTurnV1Env`` /
   ``SimpleRallyTurnV1VectorEnv``; action ``Box(-1, 1, (1,))``, the goal depth 4 + 2a metres.
-- ``RallySim/HumanLikeRallyTurn-v0``: ``humanlike_rally_v0.HumanLikeRallyTurnEnv`` /
+- ``RallySim/HumanLikeRallyTurn-v0``: ``humanlike_rally_turn_v0.HumanLikeRallyTurnEnv`` /
   ``HumanLikeRallyTurnVectorEnv``; action ``Box(-1, 1, (3,))``, the goal racket velocity
   (speed, elevation, azimuth; see ``humanlike_rally_v0``).
 
@@ -40,12 +40,12 @@ _SPECS: dict[str, tuple[str, str, dict]] = {
     HUMANLIKE_RETURN_ID: (_ENVS + "humanlike_return_v0:HumanLikeReturnEnv",
                           _ENVS + "humanlike_return_v0:HumanLikeReturnVectorEnv",
                           {"max_episode_steps": None}),
-    SIMPLE_RALLY_TURN_ID: (_ENVS + "simple_rally_v0:SimpleRallyTurnEnv",
-                           _ENVS + "simple_rally_v0:SimpleRallyTurnVectorEnv", {}),
+    SIMPLE_RALLY_TURN_ID: (_ENVS + "simple_rally_turn_v0:SimpleRallyTurnEnv",
+                           _ENVS + "simple_rally_turn_v0:SimpleRallyTurnVectorEnv", {}),
     SIMPLE_RALLY_TURN_V1_ID: (_ENVS + "simple_rally_turn_v1:SimpleRallyTurnV1Env",
                               _ENVS + "simple_rally_turn_v1:SimpleRallyTurnV1VectorEnv", {}),
-    HUMANLIKE_RALLY_TURN_ID: (_ENVS + "humanlike_rally_v0:HumanLikeRallyTurnEnv",
-                              _ENVS + "humanlike_rally_v0:HumanLikeRallyTurnVectorEnv", {}),
+    HUMANLIKE_RALLY_TURN_ID: (_ENVS + "humanlike_rally_turn_v0:HumanLikeRallyTurnEnv",
+                              _ENVS + "humanlike_rally_turn_v0:HumanLikeRallyTurnVectorEnv", {}),
     SIMPLE_RETURN_ID: (_ENVS + "simple_return_v0:SimpleReturnEnv",
                        _ENVS + "simple_return_v0:SimpleReturnVectorEnv",
                        {"max_episode_steps": None}),

@@ -50,7 +50,7 @@ import numpy as np
 from gymnasium import spaces
 
 from rallysim.core.validation import real_array, validate_actions
-from rallysim.envs.simple_rally_v0 import SimpleRallyTurnEnv, SimpleRallyTurnVectorEnv
+from rallysim.envs.simple_rally_turn_v0 import SimpleRallyTurnEnv, SimpleRallyTurnVectorEnv
 from rallysim.players import SIMPLE
 from rallysim.policies.types import LowLevel
 

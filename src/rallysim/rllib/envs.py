@@ -25,7 +25,8 @@ import numpy as np
 from ray.rllib.env.multi_agent_env import MultiAgentEnv
 from ray.tune.registry import register_env
 
-from rallysim.envs.simple_rally_v0 import AGENTS, parallel_env, turn_env
+from rallysim.envs import simple_rally_turn_v0
+from rallysim.envs.simple_rally_v0 import AGENTS, parallel_env
 from rallysim.players import SIMPLE
 
 SHARED_MODULE = "shared"
@@ -91,7 +92,7 @@ class RallyMultiAgentEnv(MultiAgentEnv):
 
 
 class TurnRallyMultiAgentEnv(MultiAgentEnv):
-    """``simple_rally_v0.turn_env`` as an RLlib ``MultiAgentEnv``: one env step is one turn of
+    """``simple_rally_turn_v0.raw_env`` as an RLlib ``MultiAgentEnv``: one env step is one turn of
     the player whose turn has begun (only it observes); both players get the span's rewards;
     at the rally's end both observe (RLlib drops a player that never acted).
 
@@ -104,7 +105,7 @@ class TurnRallyMultiAgentEnv(MultiAgentEnv):
 
         env_config = dict(env_config or {})
         low = resolve(str(env_config.get("low_policy", "scripted")), "rally_low")
-        self.aec = turn_env(low_level=low, **_rally_kwargs(env_config))
+        self.aec = simple_rally_turn_v0.raw_env(low_level=low, **_rally_kwargs(env_config))
         self.agents = self.possible_agents = list(AGENTS)
         self.observation_spaces = {a: self.aec.observation_space(a) for a in AGENTS}
         unit = gym.spaces.Box(-1.0, 1.0, (1,), np.float32)

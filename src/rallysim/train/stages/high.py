@@ -38,7 +38,7 @@ class HighPlayer:
 def _simple_env(config: TrainConfig) -> NativeVecEnv:
     from gymnasium.wrappers.vector import RescaleAction
 
-    from rallysim.envs.simple_rally_v0 import SimpleRallyTurnVectorEnv
+    from rallysim.envs.simple_rally_turn_v0 import SimpleRallyTurnVectorEnv
     from rallysim.train.sb3_vec import NativeVecEnv
 
     turns = SimpleRallyTurnVectorEnv(config.ppo.n_envs,
@@ -61,7 +61,7 @@ def _simple_lengths(config: TrainConfig, act: Policy, rallies: int) -> np.ndarra
 
 
 def _humanlike_env(config: TrainConfig) -> NativeVecEnv:
-    from rallysim.envs.humanlike_rally_v0 import HumanLikeRallyTurnVectorEnv
+    from rallysim.envs.humanlike_rally_turn_v0 import HumanLikeRallyTurnVectorEnv
     from rallysim.train.sb3_vec import NativeVecEnv
 
     low = resolve(config.low_policy, "rally_low", HUMANLIKE)
@@ -84,7 +84,7 @@ PLAYERS: dict[str, HighPlayer] = {
     "simple": HighPlayer(_simple_env, _simple_lengths, SIMPLE.goal.mapping,
                          "RallySim/SimpleRallyTurn-v0"),
     "humanlike": HighPlayer(_humanlike_env, _humanlike_lengths, HUMANLIKE.goal.mapping,
-                            "rallysim.envs.humanlike_rally_v0:HumanLikeRallyTurnVectorEnv"),
+                            "rallysim.envs.humanlike_rally_turn_v0:HumanLikeRallyTurnVectorEnv"),
 }
 
 
