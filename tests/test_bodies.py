@@ -1,4 +1,4 @@
-"""SIMPLE player bodies: servo, limits, base, kinematics (SPEC §5)."""
+"""SIMPLE player bodies: servo, limits, base, kinematics (docs/reference.md §5)."""
 
 import mujoco
 import numpy as np

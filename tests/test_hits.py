@@ -1,4 +1,4 @@
-"""Hits, tunnelling, net and landing in the batched game (SPEC §3-5)."""
+"""Hits, tunnelling, net and landing in the batched game (docs/reference.md §3-5)."""
 
 import numpy as np
 import pytest

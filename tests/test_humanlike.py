@@ -1,5 +1,5 @@
-"""HUMAN-LIKE player and RallySim/HumanLikeReturn-v0 (SPEC §10, issue 5): model, servo, limits,
-spaces, goals, a scripted swing, determinism, API checks."""
+"""HUMAN-LIKE player and RallySim/HumanLikeReturn-v0 (docs/reference.md §10, issue 5): model,
+servo, limits, spaces, goals, a scripted swing, determinism, API checks."""
 
 import mujoco
 import numpy as np
@@ -17,7 +17,7 @@ from rallysim.envs.humanlike_return_v0 import HumanLikeReturnEnv, HumanLikeRetur
 from rallysim.policies.scripted_swing import ScriptedSwing
 from tests.conftest import check_seeded_and_batched
 
-# SPEC §10's joint table, degrees, in JOINTS order
+# docs/reference.md §10's joint table, degrees, in JOINTS order
 SPEC_RANGES = [(-15, 15), (-15, 15), (-90, 90), (-75, 75), (-85, 85), (0, 100), (-90, 90),
                (-25, 25)]
 

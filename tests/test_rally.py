@@ -1,4 +1,5 @@
-"""simple_rally_v0: PettingZoo APIs, rally rules, turns, competitive scoring (SPEC §7-8)."""
+"""simple_rally_v0: PettingZoo APIs, rally rules, turns, competitive scoring
+(docs/reference.md §7-8)."""
 
 import numpy as np
 import pytest

@@ -1,4 +1,4 @@
-"""Serve, court geometry and swept overlap tests (SPEC §3, §4.3)."""
+"""Serve, court geometry and swept overlap tests (docs/reference.md §3, §4.3)."""
 
 import numpy as np
 import pytest

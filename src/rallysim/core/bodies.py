@@ -1,8 +1,9 @@
 """MuJoCo-backed player batches. One compiled MjModel holds every player of every environment,
 so one ``mj_step`` advances the whole batch and the rulebook reads joint state as arrays.
 
-Players work in their own frame (SPEC §1): each stands at x < 0 and faces +x. Player 1's copies
-are attached rotated 180 degrees about z, so the same joint angle means the same swing for both.
+Players work in their own frame (docs/reference.md §1): each stands at x < 0 and faces +x. Player
+1's copies are attached rotated 180 degrees about z, so the same joint angle means the same swing
+for both.
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ SIMPLE_ACTIONS = ("target_orientation", "force", "movement")
 class PlayerBodies(Protocol):
     """What the rulebook (``Game``) needs of a batch of N x P players, in their own frames.
 
-    Arrays are (N, P, ...); "own frame" is the player's (SPEC §1). Implemented by
+    Arrays are (N, P, ...); "own frame" is the player's (docs/reference.md §1). Implemented by
     ``SimpleBodies`` here; other player models implement the same to share every rule."""
 
     n_envs: int
@@ -77,7 +78,7 @@ class MjDataViews:
 
 
 class SimpleBodies(MjDataViews):
-    """N x P SIMPLE players (SPEC §5) in one MuJoCo model.
+    """N x P SIMPLE players (docs/reference.md §5) in one MuJoCo model.
 
     Per physics step the arm's drive is a stiff position servo solved implicitly (it would reach
     its target within the step), limited to the 7 rad/s rate cap and then to the torque allowed
@@ -249,7 +250,7 @@ class SimpleBodies(MjDataViews):
 
     @staticmethod
     def shot_velocity(racket: np.ndarray) -> np.ndarray:
-        """SPEC §5: the shuttle leaves at twice the face centre's velocity."""
+        """docs/reference.md §5: the shuttle leaves at twice the face centre's velocity."""
         return 2.0 * racket
 
     # -- kinematics (own frame) ----------------------------------------------------------------
@@ -263,7 +264,8 @@ class SimpleBodies(MjDataViews):
         return out
 
     def face_velocity(self) -> np.ndarray:
-        """(N, P, 3) own-frame velocity of each face centre (arm rotation only, SPEC §5)."""
+        """(N, P, 3) own-frame velocity of each face centre (arm rotation only,
+        docs/reference.md §5)."""
         s, c = np.sin(self.theta), np.cos(self.theta)
         out = np.zeros((*self.theta.shape, 3))
         out[..., 0] = self.face_offset * self.omega * c
@@ -282,7 +284,8 @@ def build_simple_world(n_envs: int, n_players: int, dt: float = 0.02) -> mujoco.
     """One MjModel with ``n_envs * n_players`` SIMPLE players, ordered env-major.
 
     Nothing in it collides and the arm's hard stops are applied by ``SimpleBodies``, so contact
-    and constraint handling are switched off; the arms are gravity-compensated (SPEC §5)."""
+    and constraint handling are switched off; the arms are gravity-compensated
+    (docs/reference.md §5)."""
     spec = mujoco.MjSpec()
     spec.option.timestep = dt
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_EULER

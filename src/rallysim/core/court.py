@@ -1,4 +1,5 @@
-"""Court geometry (SPEC §3), read once from ``assets/court.xml`` so every dimension lives there."""
+"""Court geometry (docs/reference.md §3), read once from ``assets/court.xml`` so every dimension
+lives there."""
 
 from __future__ import annotations
 

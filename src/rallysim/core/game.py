@@ -48,7 +48,7 @@ class Game:
 
     The players are ``bodies`` (default: SIMPLE players); every rule here works through the
     ``PlayerBodies`` protocol, so another player model shares the whole rulebook. ``serve``
-    starts each rally (default: the machine serve of SPEC §4.3). The rule set ``rules``
+    starts each rally (default: the machine serve of docs/reference.md §4.3). The rule set ``rules``
     (``rallysim.core.rules.Rules``) is derived once from the shuttle model and the player
     count. ``shaping`` counts the low-level task's approach steps before each player's first
     hit (``Events.approach_good`` and ``approach_bad``).
@@ -415,7 +415,7 @@ class Game:
 
     def _apply_hits(self, hit: np.ndarray, t: np.ndarray, p0: np.ndarray) -> None:
         """Shuttles met by an armed face leave as the bodies' shot rule says (SIMPLE: at twice
-        the face centre's velocity, SPEC §5), from the point of contact."""
+        the face centre's velocity, docs/reference.md §5), from the point of contact."""
         b, sh, ev = self.bodies, self.shuttle, self.events
         env, player = np.nonzero(hit)
         # one hitter per shuttle: the first in player order (only one is armed in a rally)

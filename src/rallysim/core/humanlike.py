@@ -1,4 +1,5 @@
-"""HUMAN-LIKE players (SPEC §10): N x P humanoid upper bodies with rackets in ONE MuJoCo model.
+"""HUMAN-LIKE players (docs/reference.md §10): N x P humanoid upper bodies with rackets in ONE
+MuJoCo model.
 
 ``HumanLikeBodies`` implements the rulebook's ``PlayerBodies`` protocol, so ``Game`` serves,
 flies, judges hits and landings for these players exactly as for the SIMPLE ones.
@@ -18,8 +19,9 @@ cannot do this at the 0.02 s step: the spine and chest turn about the same axis,
 arm's twist drives a tiny inertia, so a clamped stiff PD chatters and a decoupled one diverges.
 
 One ``mj_step`` advances the whole batch; joint limits are hard stops applied after it
-(constraints are off, like the SIMPLE arm's). Own frames (SPEC §1): every player stands at
-x < 0 facing +x; player 1's copies are attached turned 180 degrees about z, so one joint angle
+(constraints are off, like the SIMPLE arm's). Own frames (docs/reference.md §1): every player
+stands at x < 0 facing +x; player 1's copies are attached turned 180 degrees about z, so one joint
+angle
 means one pose for either player.
 """
 
@@ -42,7 +44,8 @@ except ImportError:  # pragma: no cover - a NumPy that moved it
     _umath_linalg = None
 
 XML = "humanlike_player.xml"
-# Hinges in the model's order, which is also the action's order of target rotations (SPEC §10).
+# Hinges in the model's order, which is also the action's order of target rotations
+# (docs/reference.md §10).
 JOINTS = ("spine_z", "chest_z", "upper_arm_x", "upper_arm_y", "upper_arm_z", "lower_arm_x",
           "hand_x", "hand_y")
 GROUPS = ("spine", "chest", "upper_arm", "lower_arm", "hand")  # strength groups = observed bodies
@@ -63,7 +66,7 @@ ACTIVE_SET_ROUNDS = 8  # rounds of the exact solve (it converges in 2-6); torque
 
 
 class HumanLikeBodies(MjDataViews):
-    """N x P HUMAN-LIKE players (SPEC §10) for ``Game``; see the module docstring.
+    """N x P HUMAN-LIKE players (docs/reference.md §10) for ``Game``; see the module docstring.
 
     Actions (N, P, 15) in [-1, 1]: hips velocity x, y = ``max_hips_speed`` * a (own frame);
     target angles spanning each joint's range; strength = (a + 1) / 2 of each group's maximum
@@ -445,7 +448,8 @@ class HumanLikeBodies(MjDataViews):
 
     @staticmethod
     def shot_velocity(racket: np.ndarray) -> np.ndarray:
-        """SPEC §10: the shuttle leaves along the racket velocity at min(60, 5 |v|) m/s."""
+        """docs/reference.md §10: the shuttle leaves along the racket velocity at min(60, 5 |v|)
+        m/s."""
         speed = np.linalg.norm(racket, axis=-1, keepdims=True)
         scale = np.divide(np.minimum(60.0, 5.0 * speed), speed, out=np.zeros_like(speed),
                           where=speed > 0.0)

@@ -1,4 +1,4 @@
-"""The HUMAN-LIKE player's observation (SPEC §10), without the goal.
+"""The HUMAN-LIKE player's observation (docs/reference.md §10), without the goal.
 
 Every value is in the observing player's own frame (it stands at x < 0 facing +x) and scaled to
 [-1, 1] by a fixed affine map (then clipped by the task). The 82 values:

@@ -1,5 +1,5 @@
-"""The rulebook (SPEC §3-7): the rule set, serve, swept overlap tests, net, landing, in/out,
-arming and scoring.
+"""The rulebook (docs/reference.md §3-7): the rule set, serve, swept overlap tests, net, landing,
+in/out, arming and scoring.
 
 Functions over batched arrays, shared by every player model and every API view: ``start_rally``
 and the ``record_*`` functions change a ``RallyState`` in place, the others return new arrays.
@@ -22,7 +22,7 @@ from rallysim.core.state import SERVE, RallyState
 FORWARD = np.array([1.0, -1.0])  # own-frame x (and y) = FORWARD[p] * world x (and y)
 BIG = 1e9  # "unbounded" for box sides; finite so that 0 * BIG stays 0
 
-# SPEC §4.3: the machine serve, in the receiver's own frame.
+# docs/reference.md §4.3: the machine serve, in the receiver's own frame.
 SERVE_X = (1.0, 6.0)
 SERVE_Z = (1.0, 1.5)
 SERVE_ELEVATION_NEAR = (np.radians(45.0), np.radians(60.0))  # x0 = 1

@@ -1,6 +1,7 @@
 """Serve strategies: how each rally's shuttle is put in flight.
 
-A ``Game`` holds one (the machine serve of SPEC §4.3 unless told otherwise) and asks it once per
+A ``Game`` holds one (the machine serve of docs/reference.md §4.3 unless told otherwise) and asks
+it once per
 ``Game.reset``; nothing overwrites the shuttle afterwards. A strategy draws its uniforms from
 each served game's own random stream, so the order of draws within a stream is part of its
 behaviour: every strategy here keeps the order of v0's seeded episodes.
@@ -41,7 +42,7 @@ def _to_receiver(pos: np.ndarray, vel: np.ndarray, receiver: np.ndarray) -> None
 
 @dataclass(frozen=True)
 class MachineServe:
-    """SPEC §4.3: the machine serve from the far side (``rules.sample_serve``), drawing
+    """docs/reference.md §4.3: the machine serve from the far side (``rules.sample_serve``), drawing
     ``rules.SERVE_DRAWS`` uniforms per game."""
 
     def __call__(self, rngs: Rngs, receiver: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -49,7 +50,7 @@ class MachineServe:
         return rules.sample_serve(u, receiver)
 
 
-# SPEC §10: the HUMAN-LIKE serve, in the receiver's own frame.
+# docs/reference.md §10: the HUMAN-LIKE serve, in the receiver's own frame.
 HUMANLIKE_SERVE_X, HUMANLIKE_SERVE_Y, HUMANLIKE_SERVE_Z = (1.0, 6.0), (-1.0, 1.0), (1.0, 1.5)
 HUMANLIKE_SERVE_LATERAL, HUMANLIKE_SERVE_RISE = (-0.5, 0.5), (2.0, 3.0)
 HUMANLIKE_SERVE_TOWARD = 3.0
@@ -74,7 +75,8 @@ def sample_humanlike_serves(u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 @dataclass(frozen=True)
 class HumanLikeServe:
-    """SPEC §10: the HUMAN-LIKE serve (``sample_humanlike_serves``) toward the receiver.
+    """docs/reference.md §10: the HUMAN-LIKE serve (``sample_humanlike_serves``) toward the
+    receiver.
 
     v0 drew the machine serve's ``rules.SERVE_DRAWS`` uniforms as well and then replaced that
     serve; to keep v0's seeded episodes this strategy still draws them, unused: ``unused_before``

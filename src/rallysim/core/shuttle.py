@@ -1,4 +1,4 @@
-"""Shuttle flight models (SPEC §4), batched over N shuttles and advanced in place.
+"""Shuttle flight models (docs/reference.md §4), batched over N shuttles and advanced in place.
 
 Every model is selected by name (``SHUTTLE_MODELS``). Positions and velocities are world-frame
 arrays of shape (N, 3); the models own no state beyond what ``ShuttleState`` holds.
@@ -94,7 +94,8 @@ class ShuttleModel:
 
 
 class PaperShuttle(ShuttleModel):
-    """The original builds' flight (SPEC §4.1), per step: v <- (v + g dt)(1 - c dt); p += v dt."""
+    """The original builds' flight (docs/reference.md §4.1), per step: v <- (v + g dt)(1 - c dt); p
+    += v dt."""
 
     name = "paper"
     linear_damping = 1.5  # 1/s: Unity's drag, giving the factor 0.97 per 0.02 s step
@@ -133,8 +134,8 @@ class PaperAlg1Shuttle(PaperShuttle):
 
 
 class AeroShuttle(ShuttleModel):
-    """A real shuttlecock (SPEC §4.2): quadratic drag a = -k |v| v with k = g / v_t^2 and a
-    6.7 m/s terminal speed; the net blocks it; in/out is judged on the full half court.
+    """A real shuttlecock (docs/reference.md §4.2): quadratic drag a = -k |v| v with k = g / v_t^2
+    and a 6.7 m/s terminal speed; the net blocks it; in/out is judged on the full half court.
 
     Each sub-step splits gravity around an exact drag step (pure quadratic drag solves to
     v / (1 + k |v| h)), which is stable at any speed and lands on the terminal speed to 1e-3;

@@ -1,4 +1,5 @@
-"""The SIMPLE player's observation (SPEC §6-7), shared by the low-level task and the rally.
+"""The SIMPLE player's observation (docs/reference.md §6-7), shared by the low-level task and the
+rally.
 
 Every value is in the observing player's own frame and scaled to [-1, 1] by a fixed affine map
 (then clipped, so observations always lie in the declared bounds). The 16 values:
@@ -28,7 +29,7 @@ SHUTTLE_SPEED_SCALE = 30.0
 PLAYER_OBS = Layout((("base_position", 3), ("arm_quaternion", 4), ("face_velocity", 3),
                      ("shuttle_position", 3), ("shuttle_velocity", 3)))
 PLAYER_OBS_SIZE = PLAYER_OBS.size  # 16
-TARGET_DEPTH_RANGE = (2.0, 6.0)  # SPEC §6/§8: goals are landing depths beyond the net
+TARGET_DEPTH_RANGE = (2.0, 6.0)  # docs/reference.md §6/§8: goals are landing depths beyond the net
 
 
 def normalise_position(p: np.ndarray) -> np.ndarray:

@@ -1,7 +1,7 @@
 """``humanlike_rally_v0``: two HUMAN-LIKE players rally in 3-D, the rally the paper never reached.
 
 The same views as ``simple_rally_v0``, over ``RallyTask`` with the HUMAN-LIKE player spec (the
-same rulebook with the HUMAN-LIKE bodies of SPEC §10). The goal-level turn game is its own
+same rulebook with the HUMAN-LIKE bodies of docs/reference.md §10). The goal-level turn game is its own
 module, ``humanlike_rally_turn_v0`` (``RallySim/HumanLikeRallyTurn-v0``).
 
 | view | what |
@@ -25,7 +25,7 @@ about z), in [-1, 1]:
 ## Rules
 Hips start at own-frame (-2.7, 0) for both, joints in the zero pose. The serve is the low-level
 task's HUMAN-LIKE serve, to player 0. After a hit the shuttle leaves along the racket velocity
-at min(60, 5 |v|) m/s (SPEC §10). Everything else (arming, net, landing, the cooperative +0.2
+at min(60, 5 |v|) m/s (docs/reference.md §10). Everything else (arming, net, landing, the cooperative +0.2
 per hit and 50-hit cap, competitive badminton scoring) is ``simple_rally_v0``'s; see there.
 
 ## PettingZoo conventions

@@ -1,4 +1,4 @@
-"""``RallySim/HumanLikeReturn-v0``: the HUMAN-LIKE low-level task (SPEC §10).
+"""``RallySim/HumanLikeReturn-v0``: the HUMAN-LIKE low-level task (docs/reference.md §10).
 
 One HUMAN-LIKE player (a humanoid upper body on kinematic hips, racket in the right hand; see
 ``rallysim.core.humanlike`` and ``assets/humanlike_player.xml``) stands at x < 0. A serve comes
@@ -36,7 +36,7 @@ racket velocity / 5 m/s. Values are clipped into the bounds.
 The maximum is 1.0 per episode. After the hit the shuttle leaves along v at min(60, 5 abs(v)) m/s.
 
 ## Starting state
-Serve (SPEC §10): from x0 ~ U[1, 6], y0 ~ U[-1, 1], z0 ~ U[1, 1.5] m on the far side, along
+Serve (docs/reference.md §10): from x0 ~ U[1, 6], y0 ~ U[-1, 1], z0 ~ U[1, 1.5] m on the far side, along
 normalise(-3, U(-0.5, 0.5), U(2, 3)) at 15 m/s (with the ``paper`` flight it always clears
 the net and lands at x in [-6.3, -0.5] m after 1.5-1.9 s; with ``aero`` 7 % meet the net). Hips at x ~ U[-4.5, -1.5], y ~ U[-1.5, 1.5] m, joints at
 the zero pose (a T-pose: arm out to the right, racket continuing it), at rest. Target racket

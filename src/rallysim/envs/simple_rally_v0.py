@@ -1,4 +1,4 @@
-"""``simple_rally_v0``: two SIMPLE players rally over the net (SPEC §7-8).
+"""``simple_rally_v0``: two SIMPLE players rally over the net (docs/reference.md §7-8).
 
 Views of one batched rally core (``RallyTask``) in which both players act every decision.
 The goal-level game the paper's high level plays, one turn per step, is its own module,
@@ -24,7 +24,7 @@ about z), scaled to [-1, 1]:
 | 19 | "my turn": 1 while this player's racket is armed |
 
 ## Rules
-Bases start at x = -2.7 (player 0) and +2.44 (player 1), arms upright. The serve (SPEC §4.3)
+Bases start at x = -2.7 (player 0) and +2.44 (player 1), arms upright. The serve (docs/reference.md §4.3)
 goes to player 0; player 1's racket is disarmed until player 0 hits. A hit disarms the hitter
 and arms the other. With the ``paper`` shuttles a net touch re-arms both rackets and the shuttle
 flies on (the original builds); with ``aero`` the net blocks it and it drops on the hitter's side.

@@ -1,4 +1,4 @@
-"""``RallySim/SimpleReturn-v0``: the SIMPLE low-level task (SPEC §5-6).
+"""``RallySim/SimpleReturn-v0``: the SIMPLE low-level task (docs/reference.md §5-6).
 
 One SIMPLE player stands at x < 0. A machine serve comes over the net; the player must hit it so
 that it lands ``target_depth`` metres beyond the net. One hit per episode; the episode ends when
@@ -27,7 +27,7 @@ index 16 is the target depth, (d* - 4) / 2. Values are clipped into the bounds.
 | landing, if hit, no net touch since the hit, and in the opponent court | exp(-0.5 * abs(depth - d*)) |
 
 ## Starting state
-The serve of SPEC §4.3 (toward this player). The base starts at x ~ U[-6.5, -1.0] and the arm
+The serve of docs/reference.md §4.3 (toward this player). The base starts at x ~ U[-6.5, -1.0] and the arm
 at an angle ~ U[-85, 85] deg (the original never reset its robots, so they started wherever the
 previous episode left them; ours draws that from the seed). The goal d* ~ U[2, 6] m.
 

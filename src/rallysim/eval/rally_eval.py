@@ -18,7 +18,7 @@ from rallysim.players import PlayerSpec
 from rallysim.policies.registry import resolve
 from rallysim.policies.types import HighLevel, LowLevel, Policy
 
-PAPER_CAP = RallyConfig.max_hits  # hits: the paper's rally cap (SPEC §7)
+PAPER_CAP = RallyConfig.max_hits  # hits: the paper's rally cap (docs/reference.md §7)
 MAX_CAP = 100_000
 DECISIONS_PER_HIT = 100  # the stall guard's allowance: 10 s of play per hit
 

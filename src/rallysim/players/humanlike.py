@@ -1,5 +1,5 @@
-"""The HUMAN-LIKE player (SPEC §10): a humanoid upper body on kinematic hips, racket in the
-right hand, 15 actuators.
+"""The HUMAN-LIKE player (docs/reference.md §10): a humanoid upper body on kinematic hips, racket
+in the right hand, 15 actuators.
 
 Its goal is the racket's velocity at the hit, given as three values in [-1, 1] that map onto
 the low-level task's target range: speed 1.5 + 1.5 (g0 + 1) m/s, elevation 40 + 5 (g1 + 1) deg,

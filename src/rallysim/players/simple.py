@@ -1,4 +1,5 @@
-"""The SIMPLE player (SPEC §5-8): a base sliding along x and one arm swinging in the x-z plane.
+"""The SIMPLE player (docs/reference.md §5-8): a base sliding along x and one arm swinging in the
+x-z plane.
 
 Its goal is a landing depth beyond the net, in [2, 6] m; a high-level network's action a in
 [-1, 1] sets it to 4 + 2a m, the original's mapping.

@@ -3,9 +3,11 @@
 ``SceneRenderer`` draws the court, the shuttle, its trail and the HUD the same way for every
 kind of player; a *rig* does the rest for one kind:
 
-- ``SimpleRig`` (SIMPLE, SPEC §5): base position and arm angle; the target is a landing depth,
+- ``SimpleRig`` (SIMPLE, docs/reference.md §5): base position and arm angle; the target is a
+landing depth,
   a red disc on the floor (a mocap body of the rendering model).
-- ``HumanLikeRig`` (HUMAN-LIKE, SPEC §10): hips position and all 8 hinge angles; the target is
+- ``HumanLikeRig`` (HUMAN-LIKE, docs/reference.md §10): hips position and all 8 hinge angles; the
+target is
   a racket velocity, a red arrow from the racket head along it, ``ARROW_SECONDS`` × the
   velocity long, added to each frame's scene as a decor geom.
 """

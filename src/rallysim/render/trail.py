@@ -3,8 +3,8 @@
 Frames come one per decision (0.1 s), when a fast shuttle travels a metre or more, so the trail
 joins its points with thin rods as well as marking them with spheres: it reads as a streak. The
 newest parts are the widest and brightest; the spheres also fade out (alpha). The rods fade
-in colour instead, toward the hall's wall: on the software rasteriser a transparent rod cost
-about 0.03 ms of CPU per frame at 640x360, an opaque one next to nothing.
+in colour instead, toward the hall's wall, because transparent geoms cost the software
+rasteriser far more than opaque ones (docs/rendering.md gives the measured costs).
 """
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
 """The PPO RLModule RallySim trains with RLlib: RLlib's default one, with the log-std started
-at the config's ``log_std_init`` as in the SB3 path (SPEC §8: -0.5).
+at the config's ``log_std_init`` as in the SB3 path (docs/reference.md §8: -0.5).
 
 With ``free_log_std=True`` the policy head is one linear layer to the action means and a
 state-independent log-std vector, the same parameterisation as SB3's and as RallySim's policy

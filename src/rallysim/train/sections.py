@@ -16,8 +16,8 @@ from rallysim.train.values import Bound, above, at_least, within
 
 @dataclass(frozen=True)
 class PPOSettings:
-    """PPO's rollout, update and networks (SPEC §8: tanh MLP 64x64 actor and critic, log-std
-    initialised at -0.5), shared by the SB3 and RLlib backends."""
+    """PPO's rollout, update and networks (docs/reference.md §8: tanh MLP 64x64 actor and critic,
+    log-std initialised at -0.5), shared by the SB3 and RLlib backends."""
 
     SECTION: ClassVar[str] = "ppo"
 

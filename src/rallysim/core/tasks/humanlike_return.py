@@ -1,5 +1,5 @@
-"""The HUMAN-LIKE low-level task over N batched games (SPEC §10): goals, rewards, episode ends,
-observations. Its Gymnasium views, and the task's full description, are in
+"""The HUMAN-LIKE low-level task over N batched games (docs/reference.md §10): goals, rewards,
+episode ends, observations. Its Gymnasium views, and the task's full description, are in
 ``rallysim.envs.humanlike_return_v0``."""
 
 from __future__ import annotations
@@ -26,8 +26,8 @@ HIPS_START = np.array([[-4.5, -1.5], [-1.5, 1.5]])  # x and y ranges
 MIN_TARGET_SPEED = 0.5  # m/s: a target needs a direction, and the speed error divides by it
 HIT_KEYS = ("racket_velocity", "velocity_error", "angle_error", "speed_error")
 N_DRAWS = 5  # uniforms one reset draws per environment before its serve's (SERVE below)
-# The HUMAN-LIKE serve of SPEC §10 (rallysim.core.serve), drawn after the start's uniforms and
-# followed by the machine serve's draws, unused, which keeps v0's seeded episodes.
+# The HUMAN-LIKE serve of docs/reference.md §10 (rallysim.core.serve), drawn after the start's
+# uniforms and followed by the machine serve's draws, unused, which keeps v0's seeded episodes.
 SERVE = HumanLikeServe(unused_after=SERVE_DRAWS)
 
 

@@ -1,4 +1,5 @@
-"""The two-player rally over N batched games (SPEC §7): observations, turns, rewards, ends.
+"""The two-player rally over N batched games (docs/reference.md §7): observations, turns, rewards,
+ends.
 
 Shared by every rally view (PettingZoo parallel, the slot vector env, the turn-based views).
 
@@ -8,8 +9,9 @@ when the shuttle lands (terminated) or at the 50-hit cap (truncated).
 Competitive mode: badminton scoring. A rally ends in a point for the player whose opponent failed
 to return the shuttle in: a shuttle landing in a player's half (in bounds) is that player's
 fault; one landing out is the last hitter's. The point's winner gets +1, the loser -1, and serves
-the next rally (the machine serve of SPEC §4.3, from the winner's side). A game goes to 21 points,
-won by 2, capped at 30; one episode is one game. A rally reaching the hit cap is replayed (a let).
+the next rally (the machine serve of docs/reference.md §4.3, from the winner's side). A game goes
+to 21 points, won by 2, capped at 30; one episode is one game. A rally reaching the hit cap is
+replayed (a let).
 """
 
 from __future__ import annotations
@@ -30,7 +32,7 @@ MODES = ("cooperative", "competitive")
 
 @dataclass(frozen=True)
 class RallyConfig:
-    """Rules of a rally game; defaults are the paper's (SPEC §7)."""
+    """Rules of a rally game; defaults are the paper's (docs/reference.md §7)."""
 
     shuttle: str = "paper"
     mode: str = "cooperative"
@@ -93,7 +95,8 @@ class RallyTask:
         n = num_rallies
         self.elapsed = np.zeros(n, np.int64)  # decisions in the current rally
         self.score = np.zeros((n, 2), np.int64)
-        self.server = np.ones(n, np.int64)  # the machine serve of SPEC §4.3 goes to player 0
+        # the machine serve of docs/reference.md §4.3 goes to player 0
+        self.server = np.ones(n, np.int64)
         self.turn_started = np.zeros((n, 2), bool)
 
     @property
@@ -122,8 +125,8 @@ class RallyTask:
         self._start_rally(envs)
 
     def _start_rally(self, envs: np.ndarray) -> None:
-        """Place both players at the spec's start pose and serve toward the receiver (SPEC §7,
-        §4.3; the serve is the spec's strategy)."""
+        """Place both players at the spec's start pose and serve toward the receiver
+        (docs/reference.md §7, §4.3; the serve is the spec's strategy)."""
         receiver = 1 - self.server[envs]
         k, start = len(envs), self.spec.start
         # base_y only for bodies that have that freedom

@@ -1,5 +1,5 @@
-"""The SIMPLE low-level task over N batched games (SPEC §5-6): goals, rewards, episode ends,
-observations. Its Gymnasium views, and the task's full description, are in
+"""The SIMPLE low-level task over N batched games (docs/reference.md §5-6): goals, rewards, episode
+ends, observations. Its Gymnasium views, and the task's full description, are in
 ``rallysim.envs.simple_return_v0``."""
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
-"""The turn loop of a hierarchical rally (SPEC §8), written once for every player kind and every
-driver: the turn-based views (``TurnTask``), recorded videos and the live viewer
+"""The turn loop of a hierarchical rally (docs/reference.md §8), written once for every player kind
+and every driver: the turn-based views (``TurnTask``), recorded videos and the live viewer
 (``rallysim.render.record``, ``rallysim.render.play``).
 
 Each decision: a player whose turn has just begun (the opponent hit, or the serve is coming to

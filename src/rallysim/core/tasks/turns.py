@@ -1,4 +1,5 @@
-"""Turn-based rallies over N batched games (SPEC §8): the high level's semi-Markov steps.
+"""Turn-based rallies over N batched games (docs/reference.md §8): the high level's semi-Markov
+steps.
 
 A turn begins for a player when the opponent hits (or when a rally starts with the serve coming
 to it). The player then picks a goal, a landing depth in [2, 6] m, held until its next turn; the

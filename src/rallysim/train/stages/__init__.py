@@ -1,4 +1,4 @@
-"""The three training stages of the paper's method (SPEC §8), one object each:
+"""The three training stages of the paper's method (docs/reference.md §8), one object each:
 
 - ``low`` (``LOW``, ``rallysim.train.stages.low``): the player's return task; budget in
   decisions; the only stage with a warm start;
