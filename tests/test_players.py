@@ -74,6 +74,31 @@ def test_a_player_kind_is_one_module_defining_player(tmp_path, monkeypatch):
     assert found["robot"].goal is SIMPLE.goal
 
 
+def test_rendering_reads_the_rig_from_the_spec(monkeypatch):
+    """Rendering and play switch on no kind's name: a new kind renders through the rig its
+    spec names (here a copy of SIMPLE drawn by HUMAN-LIKE's rig, to tell the two apart)."""
+    import dataclasses
+
+    import rallysim.players as players
+    from rallysim.render.markers import goal_markers, target_markers
+    from rallysim.render.players import HumanLikeRig, SimpleRig, default_camera, rig_class
+
+    assert rig_class("simple") is SimpleRig and rig_class("humanlike") is HumanLikeRig
+    robot = dataclasses.replace(SIMPLE, name="robot", rig="rallysim.render.players:HumanLikeRig",
+                                camera="back")
+    monkeypatch.setitem(players.PLAYERS, "robot", robot)
+    assert rig_class("robot") is HumanLikeRig and default_camera("robot") == "back"
+    assert goal_markers("simple", np.array([2.5, 5.0])) == {"target_depth": [2.5, 5.0]}
+    velocity = goal_markers("robot", np.zeros((2, 3)))["target_velocity"]
+    assert velocity.shape == (2, 3) and np.allclose(np.linalg.norm(velocity, axis=1), 3.0)
+    assert target_markers("robot", 1.0) == {"target_velocity": 1.0}
+    assert isinstance(rig_class("robot").keyboard(), HumanLikeRig.keyboard)
+    monkeypatch.setitem(players.PLAYERS, "bad", dataclasses.replace(
+        SIMPLE, name="bad", rig="rallysim.render.players:default_camera"))
+    with pytest.raises(TypeError, match=r"player kind 'bad': rig .* is not a PlayerRig"):
+        rig_class("bad")
+
+
 def test_get_player_names_the_valid_kinds():
     assert get_player("humanlike") is HUMANLIKE and get_player(SIMPLE) is SIMPLE
     assert set(PLAYERS) == {"simple", "humanlike"}

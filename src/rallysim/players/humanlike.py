@@ -71,4 +71,4 @@ PLAYER = HUMANLIKE = PlayerSpec(
     observe=observe, opponent=opponent_positions, low_observations=low_observations,
     scripted_low=scripted_low,
     scripted_task_low=AimedSwing, camera="three_quarter_close",
-    low_env_id="RallySim/HumanLikeReturn-v0")
+    low_env_id="RallySim/HumanLikeReturn-v0", rig="rallysim.render.players:HumanLikeRig")

@@ -48,4 +48,4 @@ PLAYER = SIMPLE = PlayerSpec(
     observe=observe, opponent=opponent_positions,
     low_observations=low_observations, scripted_low=ScriptedController,
     scripted_task_low=scripted_task_low, camera="side",
-    low_env_id="RallySim/SimpleReturn-v0")
+    low_env_id="RallySim/SimpleReturn-v0", rig="rallysim.render.players:SimpleRig")

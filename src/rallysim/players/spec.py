@@ -111,3 +111,6 @@ class PlayerSpec:
     scripted_task_low: Callable[[], Callable]  # () -> the low-level task's scripted policy
     camera: str  # the render rig's default camera
     low_env_id: str  # the Gymnasium id of the low-level task
+    # The render rig (rallysim.render.players.PlayerRig) as "module:Class": what draws this kind,
+    # its goals and targets, and its keyboard player. Only rallysim.render imports it.
+    rig: str

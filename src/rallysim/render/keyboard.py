@@ -124,12 +124,3 @@ class KeyboardAgent:
             return np.zeros((0, 3))
         # one action per decision: a swing counts its decisions down in action()
         return self.keyboard.action()[None, :].repeat(len(rows), axis=0)
-
-
-def keyboard_for(player: str) -> Keyboard:
-    """The keyboard player of a player kind (``"simple"`` or ``"humanlike"``)."""
-    if player == "simple":
-        return KeyboardPlayer()
-    if player == "humanlike":
-        return KeyboardGoals()
-    raise ValueError(f"no keyboard player for player kind {player!r}")

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import mujoco
 import numpy as np
@@ -18,14 +19,14 @@ from rallysim.assets import asset_path
 from rallysim.core.shuttle import RADIUS
 from rallysim.players import get_player
 
+if TYPE_CHECKING:
+    from rallysim.render.players import PlayerRig
+
 SHUTTLE_RGBA = (1.0, 0.9, 0.15, 1.0)  # yellow: stands out against the green floor and the sky
 MARKER_RGBA = (0.95, 0.05, 0.05, 1.0)
 MARKER_RADIUS = 0.3
 MARKER_HALF_HEIGHT = 0.01  # a thin disc, lifted clear of the court lines (0.002 high)
 PLAYER1_BASE_RGBA = (0.85, 0.5, 0.15, 1.0)  # player 0 keeps the asset's blue
-PLAYER_ASSETS = {"simple": "simple_player.xml", "humanlike": "humanlike_player.xml"}
-# the material player 1's copy is recoloured with, per kind, to tell the two players apart
-PLAYER1_MATERIAL = {"simple": "base", "humanlike": "shirt"}
 HIDDEN_Z = -5.0  # where a marker with no target waits, under the hall floor, out of view
 HALL_FLOOR_RGBA = (0.27, 0.29, 0.33, 1.0)
 HALL_WALL_RGBA = (0.5, 0.58, 0.7, 1.0)
@@ -89,31 +90,26 @@ def fit_cameras(model: mujoco.MjModel, aspect: float) -> None:
         model.cam_fovy[cam] = pose.fovy(aspect)
 
 
-def build_render_model(n_players: int, player: str = "simple") -> mujoco.MjModel:
-    """court.xml + ``n_players`` players of kind ``player`` (``"simple"`` or ``"humanlike"``,
-    named ``p0_``, ``p1_``) + ``shuttle``, cameras posed by ``CAMERAS``. SIMPLE players get one
-    target marker each (``marker0``, ``marker1``, discs on the floor); HUMAN-LIKE targets are
-    racket velocities, drawn per frame as arrows (``rallysim.render.players``), not bodies."""
+def build_render_model(n_players: int, player: str, rig: type[PlayerRig]) -> mujoco.MjModel:
+    """court.xml + ``n_players`` players of kind ``player`` (its spec's asset, named ``p0_``,
+    ``p1_``) + ``shuttle``, cameras posed by ``CAMERAS``. With a ``rig`` whose targets are floor
+    markers (SIMPLE's landing depths) each player gets one (``marker0``, ``marker1``, discs on
+    the floor); other targets (HUMAN-LIKE's racket velocities) are drawn per frame by the rig
+    (``rallysim.render.players``), not as bodies."""
     if n_players not in (1, 2):
         raise ValueError(f"n_players must be 1 or 2, got {n_players!r}")
-    check_player_kind(player)
     spec = mujoco.MjSpec.from_file(str(asset_path("court.xml")))
     # The player asset sets the simulator's 0.02 s step; matching it keeps attach() quiet
     # (nothing is ever stepped in this model).
     spec.option.timestep = 0.02
     _lighten(spec)
-    _add_players(spec, n_players, player)
+    _add_players(spec, n_players, get_player(player).asset, rig.player1_material)
     _add_shuttle(spec)
-    if player == "simple":
+    if rig.floor_markers:
         for p in range(n_players):
             _add_marker(spec, p)
     _pose_cameras(spec)
     return spec.compile()
-
-
-def check_player_kind(player: str) -> str:
-    """``player`` if it names a player kind, else ``ValueError`` listing the kinds."""
-    return get_player(player).name
 
 
 def _lighten(spec: mujoco.MjSpec) -> None:
@@ -140,18 +136,18 @@ def _lighten(spec: mujoco.MjSpec) -> None:
                                 size=list(size), material=material, contype=0, conaffinity=0)
 
 
-def _add_players(spec: mujoco.MjSpec, n_players: int, player: str = "simple") -> None:
+def _add_players(spec: mujoco.MjSpec, n_players: int, asset: str, player1_material: str) -> None:
     """The simulator's own player asset, attached as the simulator attaches it (player 1
     turned 180 degrees about z): one joint angle draws the same pose on either side. Sites
     (HUMAN-LIKE's hit box ``face``) are in group 3, which MuJoCo does not draw by default."""
-    player_xml = asset_path(PLAYER_ASSETS[player]).read_text()
+    player_xml = asset_path(asset).read_text()
     for p in range(n_players):
         frame = spec.worldbody.add_frame()
         if p == 1:
             frame.quat = [0.0, 0.0, 0.0, 1.0]  # 180 degrees about z, as in the simulator
         spec.attach(mujoco.MjSpec.from_string(player_xml), prefix=f"p{p}_", frame=frame)
     if n_players == 2:  # tell the two players apart
-        spec.material(f"p1_{PLAYER1_MATERIAL[player]}").rgba = PLAYER1_BASE_RGBA
+        spec.material(f"p1_{player1_material}").rgba = PLAYER1_BASE_RGBA
 
 
 def _add_shuttle(spec: mujoco.MjSpec) -> None:

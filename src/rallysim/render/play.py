@@ -31,9 +31,9 @@ from rallysim.core.tasks.rally import RallyConfig
 from rallysim.core.tasks.turn_loop import HighLevel, LowLevel, TurnLoop
 from rallysim.eval.agents import Agent
 from rallysim.eval.competitive import Match
-from rallysim.render.keyboard import Keyboard, KeyboardAgent, KeyboardPlayer, keyboard_for
+from rallysim.render.keyboard import Keyboard, KeyboardAgent, KeyboardPlayer
 from rallysim.render.markers import goal_markers
-from rallysim.render.players import default_camera
+from rallysim.render.players import default_camera, rig_class
 from rallysim.render.scoreboard import Scoreboard, held_goals, player_names
 from rallysim.render.viewer import launch_viewer
 
@@ -62,7 +62,7 @@ def play(low_level: LowLevel | str, high_level: HighLevel, human: int | None = N
     # the rally first: a bad low level's name fails before any window opens
     loop = TurnLoop.build(player, 1, low_level, config, seed)
     loop.reset(np.array([0]))
-    keyboard = keyboard_for(player)
+    keyboard = rig_class(player).keyboard()
     # the viewer draws the model itself: no offscreen OpenGL context next to its window's
     scene = SceneRenderer(2, offscreen=False, player=player)
     viewer = _open_window(scene, viewer_factory, camera or default_camera(player),

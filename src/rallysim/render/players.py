@@ -4,16 +4,18 @@
 kind of player; a *rig* does the rest for one kind:
 
 - ``SimpleRig`` (SIMPLE, docs/reference.md §5): base position and arm angle; the target is a
-landing depth,
-  a red disc on the floor (a mocap body of the rendering model).
-- ``HumanLikeRig`` (HUMAN-LIKE, docs/reference.md §10): hips position and all 8 hinge angles; the
-target is
-  a racket velocity, a red arrow from the racket head along it, ``ARROW_SECONDS`` × the
-  velocity long, added to each frame's scene as a decor geom.
+  landing depth, a red disc on the floor (a mocap body of the rendering model).
+- ``HumanLikeRig`` (HUMAN-LIKE, docs/reference.md §10): hips position and all 8 hinge angles;
+  the target is a racket velocity, a red arrow from the racket head along it,
+  ``ARROW_SECONDS`` × the velocity long, added to each frame's scene as a decor geom.
+
+Each player kind's spec names its rig (``PlayerSpec.rig``), and so does its goal markers and
+keyboard player: rendering and play read them from the rig, not from the kind's name.
 """
 
 from __future__ import annotations
 
+import importlib
 import math
 from collections.abc import Sequence
 from typing import Any, ClassVar
@@ -25,7 +27,10 @@ from rallysim.core.bodies import SimpleBodies
 from rallysim.core.game import Game
 from rallysim.core.humanlike import JOINTS, HumanLikeBodies
 from rallysim.core.rules import FORWARD
-from rallysim.render.model import HIDDEN_Z, MARKER_HALF_HEIGHT, MARKER_RGBA, check_player_kind
+from rallysim.players import PLAYERS, get_player
+from rallysim.players.humanlike import targets_from_goals
+from rallysim.render.keyboard import Keyboard, KeyboardGoals, KeyboardPlayer
+from rallysim.render.model import HIDDEN_Z, MARKER_HALF_HEIGHT, MARKER_RGBA
 
 TargetDepth = float | Sequence[float | None] | np.ndarray | None
 TargetVelocity = Sequence[float] | Sequence[Sequence[float] | None] | np.ndarray | None
@@ -40,9 +45,27 @@ class PlayerRig:
     """What ``SceneRenderer`` needs to draw one kind of player: see the module docstring."""
 
     kind: ClassVar[str]
-    default_camera: ClassVar[str]
     bodies_type: ClassVar[type]
     target_keyword: ClassVar[str]  # the ``render`` argument that carries this kind's target
+    floor_markers: ClassVar[bool] = False  # the rendering model holds a target disc per player
+    player1_material: ClassVar[str]  # the asset's material recoloured on player 1's copy
+    keyboard: ClassVar[type[Keyboard]]  # the keyboard player of ``rallysim play``
+
+    @classmethod
+    def goal_markers(cls, goals: np.ndarray) -> dict[str, Any]:
+        """``render`` / ``set_state`` keyword arguments drawing one rally's turn-based goals
+        (2, *goal shape), one per player."""
+        return {cls.target_keyword: cls.targets_of_goals(np.asarray(goals))}
+
+    @classmethod
+    def targets_of_goals(cls, goals: np.ndarray) -> Any:
+        """What a turn-based goal looks like as this kind's drawn target."""
+        return goals
+
+    @classmethod
+    def target_markers(cls, target: Any) -> dict[str, Any]:
+        """The same for a low-level task's own target (as the task states it)."""
+        return {cls.target_keyword: target}
 
     def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, n_players: int) -> None:
         self.model, self.data, self.n_players = model, data, n_players
@@ -60,7 +83,7 @@ class PlayerRig:
         if not isinstance(game.bodies, self.bodies_type):
             raise TypeError(f"this renderer draws {self.kind} players, the game's bodies are "
                             f"{type(game.bodies).__name__}: use SceneRenderer(..., "
-                            f"player={_KIND_OF.get(type(game.bodies), '?')!r})")
+                            f"player={_kind_of(game.bodies)!r})")
 
     def copy_state(self, game: Game, env: int) -> None:
         """Write environment ``env``'s player poses into ``data`` (before kinematics)."""
@@ -79,9 +102,15 @@ class PlayerRig:
 
 class SimpleRig(PlayerRig):
     kind = "simple"
-    default_camera = "side"
     bodies_type = SimpleBodies
     target_keyword = "target_depth"
+    floor_markers = True
+    player1_material = "base"
+    keyboard = KeyboardPlayer  # the keys drive the arm and the base
+
+    @classmethod
+    def targets_of_goals(cls, goals: np.ndarray) -> Any:
+        return list(goals)  # landing depths, drawn as they are
 
     def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, n_players: int) -> None:
         super().__init__(model, data, n_players)
@@ -113,9 +142,14 @@ class SimpleRig(PlayerRig):
 
 class HumanLikeRig(PlayerRig):
     kind = "humanlike"
-    default_camera = "three_quarter_close"
     bodies_type = HumanLikeBodies
     target_keyword = "target_velocity"
+    player1_material = "shirt"
+    keyboard = KeyboardGoals  # the keys set the goal the low level swings for
+
+    @classmethod
+    def targets_of_goals(cls, goals: np.ndarray) -> Any:
+        return targets_from_goals(goals)  # the target racket velocities the goals ask for
 
     def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, n_players: int) -> None:
         super().__init__(model, data, n_players)
@@ -175,17 +209,23 @@ class HumanLikeRig(PlayerRig):
         return start, start + vec
 
 
-RIGS: dict[str, type[PlayerRig]] = {"simple": SimpleRig, "humanlike": HumanLikeRig}
-_KIND_OF = {rig.bodies_type: kind for kind, rig in RIGS.items()}
+def rig_class(player: str) -> type[PlayerRig]:
+    """The rig a player kind's spec names (``PlayerSpec.rig``, ``"module:Class"``)."""
+    module, _, name = get_player(player).rig.partition(":")
+    rig = getattr(importlib.import_module(module), name)
+    if not (isinstance(rig, type) and issubclass(rig, PlayerRig)):
+        raise TypeError(f"player kind {player!r}: rig {module}:{name} is not a PlayerRig")
+    return rig
 
 
-def make_rig(player: str, model: mujoco.MjModel, data: mujoco.MjData, n_players: int,
-             ) -> PlayerRig:
-    return RIGS[check_player_kind(player)](model, data, n_players)
+def _kind_of(bodies: Any) -> str:
+    """The player kind whose rig draws ``bodies`` (``"?"`` if none does)."""
+    kinds = [name for name in PLAYERS if isinstance(bodies, rig_class(name).bodies_type)]
+    return kinds[0] if kinds else "?"
 
 
 def default_camera(player: str) -> str:
-    return RIGS[check_player_kind(player)].default_camera
+    return get_player(player).camera
 
 
 def _per_player_depth(target_depth: TargetDepth, n_players: int) -> list[float | None]:

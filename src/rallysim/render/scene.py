@@ -16,7 +16,7 @@ from rallysim.render.players import (
     TargetDepth,
     TargetVelocity,
     default_camera,
-    make_rig,
+    rig_class,
 )
 from rallysim.render.trail import TRAIL_LENGTH, ShuttleTrail
 
@@ -48,7 +48,8 @@ class SceneRenderer:
             raise ValueError(f"unknown camera {camera!r}; valid: {', '.join(map(repr, CAMERAS))}")
         self.n_players, self.width, self.height, self.camera = n_players, width, height, camera
         self.player = player
-        self.model = build_render_model(n_players, player)
+        rig = rig_class(player)
+        self.model = build_render_model(n_players, player, rig)
         fit_cameras(self.model, width / height)
         # the offscreen buffer court.xml asks for (1280x720) must hold the image
         buf = self.model.vis.global_
@@ -65,7 +66,7 @@ class SceneRenderer:
         self._camera_id = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_CAMERA, camera)
         self._shuttle_mocap = int(self.model.body_mocapid[
             mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_BODY, "shuttle")])
-        self.rig: PlayerRig = make_rig(player, self.model, self.data, n_players)
+        self.rig: PlayerRig = rig(self.model, self.data, n_players)
         self.trail = ShuttleTrail(trail_length, SHUTTLE_RGBA[:3])
         self._font = HudFont(font_size_for(height))
         mujoco.mj_forward(self.model, self.data)
