@@ -45,18 +45,52 @@ def test_a_tiny_study(tmp_path, monkeypatch):
     # the best response trained against the champion alone: no pool of its own
     assert not list((tmp_path / "best_response_seed0").glob("pool/*.json"))
 
-    monkeypatch.setattr(study, "_checks", lambda seeds, pooled: {"ran": True})
-    monkeypatch.setattr("rallysim.eval.crossplay.crossplay", lambda names, *a, **k: {
-        "players": names, "games": 1,
-        "point_win_rate": [[None if i == j else {"value": 0.5, "low": 0.4, "high": 0.6}
-                            for j in range(len(names))] for i in range(len(names))]})
-    result = study.report(tmp_path, games=2, max_decisions=1500)
+    # the report: a two-rung ladder calibrated, then the seed's snapshots and champion rated
+    # against it and played against each other, in one cross-play matrix
+    monkeypatch.setattr("rallysim.eval.ratings.REFERENCE_LADDER", ("random", "scripted"))
+    monkeypatch.setattr(study, "_checks", lambda seeds, pooled, rows: {"ran": True})
+    result = study.report(tmp_path, games=2, max_decisions=1500, figures=tmp_path / "fig",
+                          crossplay_games=1)
     assert result["pooled"]["champion_vs_scripted"]["value"] == pytest.approx(
         sum(per_game["won"]) / sum(per_game["points"]))
+    snaps = [str(tmp_path / "league_seed0" / "pool" / f"snapshot_{t:012d}") for t in (0, 512)]
+    champion = str(tmp_path / "league_seed0" / "policy")
+    cp = result["crossplay"]
+    assert cp["players"] == ["random", "scripted", *snaps, champion]
+    n = len(cp["players"])
+    assert all(cp["point_win_rate"][i][j] is not None for i in range(n) for j in range(n)
+               if i != j)  # one seed: every pair played
+    assert len(cp["pairs"]) == n * (n - 1) // 2
+    ladder = result["ladder"]
+    assert set(ladder["players"]) == {"random", "scripted"}
+    assert ladder["players"]["scripted"]["mu"] > ladder["players"]["random"]["mu"]
+    assert json.loads((tmp_path / "ladder_ratings.json").read_text()) == ladder
+    # the snapshots were rated against the ladder held fixed; their ratings are the matrix's
+    row = result["seeds"][0]
+    assert [r["turns"] for r in row["ratings"]] == [0, 512]
+    for name in ("random", "scripted"):
+        assert cp["ratings"]["players"][name] == ladder["players"][name]
+    for r, m in zip(row["ratings"], row["snapshots"], strict=True):
+        mu, sigma = cp["ratings"]["players"][m["name"]].values()
+        assert r["rating"] == pytest.approx(mu - 3 * sigma)
+        assert set(m["versus"]) == {"random", "scripted"}
+    assert row["ratings_monotonic"] == (row["ratings"][1]["rating"] >= row["ratings"][0]["rating"])
+    assert row["ratings_training"] == doc["ratings"]  # as the league logged them
+    assert (tmp_path / "fig" / "compete_crossplay_seed0.png").stat().st_size > 10_000
     text = study.render(result)
     assert f"{result['pooled']['best_response']['value']:.3f}" in text
-    assert "champion (seed 0)" in text
+    assert "champion s0" in text and f"{row['ratings'][1]['rating']:.2f}" in text
     assert np.isfinite(result["seeds"][0]["vs_scripted"]["value"])
+
+    # drawn again, the report replays no game (they are kept) and gives the same numbers
+    def no_games(*args, **kwargs):
+        raise AssertionError("a game was played again")
+
+    monkeypatch.setattr("rallysim.eval.crossplay.play_games", no_games)
+    monkeypatch.setattr("rallysim.eval.ratings.play_games", no_games)
+    again = study.report(tmp_path, games=2, max_decisions=1500, crossplay_games=1)
+    assert again["seeds"] == result["seeds"] and again["ladder"] == ladder
+    assert {**again["crossplay"], "wall_s": 0} == {**cp, "wall_s": 0}
 
 
 def test_the_docs_tables_match_the_committed_study():
@@ -64,3 +98,29 @@ def test_the_docs_tables_match_the_committed_study():
     assert "<!-- BEGIN GENERATED: compete_study -->" in doc
     assert regenerate(doc, ROOT / "docs" / "data") == doc, (
         "run: python -m rallysim.train.results_doc --doc docs/competitive.md")
+
+
+def test_the_committed_study_rates_every_snapshot_against_the_calibrated_ladder():
+    import itertools
+
+    result = json.loads((ROOT / "docs" / "data" / "compete_study.json").read_text())
+    ladder = result["ladder"]
+    # calibrated, not the defaults: the deep fixed goal on top, the cooperative agents last
+    assert [r["name"] for r in ladder["table"]] == ["fixed:6", "scripted", "random", "hrl",
+                                                     "mono"]
+    assert all(p["sigma"] < 1.0 for p in ladder["players"].values())
+    assert json.loads((ROOT / "docs" / "data" / "ladder_ratings.json").read_text()) == ladder
+    cp = result["crossplay"]
+    for name, rating in ladder["players"].items():  # held fixed while the snapshots were rated
+        assert cp["ratings"]["players"][name] == rating
+    for s in result["seeds"]:
+        members = [m["name"] for m in s["snapshots"]] + [s["champion"]]
+        assert len(s["snapshots"]) >= 5 and set(members) <= set(cp["players"])
+        for m in members:  # every snapshot played every rung in the matrix
+            i = cp["players"].index(m)
+            assert all(cp["point_win_rate"][i][cp["players"].index(r)] for r in ladder["players"])
+        values = [r["rating"] for r in s["ratings"]]
+        assert s["ratings_monotonic"] == all(b >= a for a, b in itertools.pairwise(values))
+        assert values[-1] > values[0] + 5.0  # no saturation: trained beats untrained by far
+    assert result["checks"]["ratings_monotonic_in_2_of_3"] == (
+        sum(s["ratings_monotonic"] for s in result["seeds"]) >= 2)

@@ -61,8 +61,44 @@ def test_the_league_is_saved_with_each_checkpoint(league_run):
     assert [s["turns"] for s in state["snapshots"]] == [0, 512, 1024]
     # every snapshot was rated against the ladder: the ratings survive in the checkpoint
     assert len(state["history"]) == 3 and all("rating" in h for h in state["history"])
-    # the ladder is the fixed yardstick: only the snapshots' ratings move
-    assert sorted(state["ratings"]["players"]) == [s["name"] for s in state["snapshots"]]
+    # the ladder (calibrated first; one rung keeps the defaults) is the fixed yardstick: only
+    # the snapshots' ratings move
+    players = state["ratings"]["players"]
+    assert sorted(players) == sorted(["scripted", *(s["name"] for s in state["snapshots"])])
+    assert players["scripted"] == {"mu": 25.0, "sigma": 25.0 / 3.0}
+
+
+def test_the_league_rates_with_the_shared_function(league_run, monkeypatch):
+    # League.rate is eval.ratings.rate_against: the same games rated the same way give the
+    # league's logged ratings float for float
+    from rallysim.eval.agents import agent
+    from rallysim.eval.ratings import Ratings, rate_against
+    from rallysim.policies.registry import resolve
+
+    out, _ = league_run
+    state = json.loads(ckpt.latest_checkpoint(out).read_text())["stage_state"]
+    config = load_config("compete", overrides=TINY)
+    ratings = Ratings({"scripted": (25.0, 25.0 / 3.0)})
+    low = resolve(config.low_policy, "rally_low", config.player)
+    for record in state["history"]:
+        played = rate_against(ratings, record["name"], agent(str(out / "pool" / record["name"])),
+                              ["scripted"], games=1, seed=config.eval.seed,
+                              max_decisions=config.league.rating_decisions,
+                              shuttle=config.shuttle, low=low)
+        assert ratings.ordinal(record["name"]) == record["rating"]
+        assert played["scripted"].point_win_rate == record["point_win_rate"]["scripted"]
+    assert ratings.to_json() == state["ratings"]
+
+    import rallysim.eval.ratings as ratings_module
+    from rallysim.train.league import League
+
+    calls = []
+    monkeypatch.setattr(ratings_module, "rate_against",
+                        lambda *a, **k: calls.append(a[1]) or {})
+    league = League.__new__(League)
+    league.config, league.ratings = config, state["ratings"]
+    league.snapshot_agent, league.low = (lambda name: None), low
+    assert league.rate("new")["point_win_rate"] == {} and calls == ["new"]
 
 
 def test_same_seed_same_weights(league_run, tmp_path):

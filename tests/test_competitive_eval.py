@@ -17,7 +17,14 @@ import rallysim.eval.crossplay as crossplay_module
 from rallysim.cli import main
 from rallysim.eval.agents import AGENT_NAMES, Direct, Hierarchical, agent
 from rallysim.eval.competitive import Games, Match, play_games, summarise
-from rallysim.eval.crossplay import crossplay, heatmap, heatmap_size
+from rallysim.eval.crossplay import (
+    crossplay,
+    heatmap,
+    heatmap_size,
+    matrix,
+    play_pairs,
+    submatrix,
+)
 from rallysim.eval.ratings import Ratings
 from rallysim.policies.callables import FixedGoal
 from rallysim.policies.registry import PRETRAINED, resolve
@@ -211,6 +218,23 @@ def test_crossplay_ratings_come_from_its_games(cross):
     assert all(ratings.sigma(n) < 25.0 / 3.0 for n in CROSS)  # every player was rated
 
 
+def test_a_matrix_of_chosen_pairs_leaves_the_others_empty(cross):
+    played = play_pairs(CROSS, [(CROSS[0], CROSS[1])], **CROSS_ARGS)
+    m = matrix(CROSS, played, **CROSS_ARGS)
+    assert m["point_win_rate"][0][1] == cross["point_win_rate"][0][1]  # the same games
+    assert m["point_win_rate"][0][2] is None and m["point_win_rate"][2][1] is None
+    assert [(p["a"], p["b"]) for p in m["pairs"]] == [(CROSS[0], CROSS[1])]
+    swapped = matrix([CROSS[1], CROSS[0]], played, **CROSS_ARGS)  # seen from the other side
+    assert swapped["point_win_rate"][0][1]["value"] == pytest.approx(
+        cross["point_win_rate"][1][0]["value"])
+    assert play_pairs(CROSS, [(CROSS[1], CROSS[0])], played=played, **CROSS_ARGS) is played
+    assert len(played) == 1  # a pair played already (either way round) is not played again
+    sub = submatrix(cross, [CROSS[2], CROSS[0]])
+    assert sub["players"] == [CROSS[2], CROSS[0]]
+    assert sub["point_win_rate"][0][1] == cross["point_win_rate"][2][0]
+    assert [(p["a"], p["b"]) for p in sub["pairs"]] == [(CROSS[0], CROSS[2])]
+
+
 @pytest.mark.parametrize("names, word", [(["random"], "at least two"),
                                          (["random", "scripted", "random"], "repeated"),
                                          (["random", "bogus"], "unknown competitive player")])
@@ -233,12 +257,12 @@ def _png_size(path) -> tuple[int, int]:
 def test_heatmap_is_a_png_of_the_expected_size(cross, tmp_path):
     path = heatmap(cross, tmp_path / "cross.png")
     assert path.stat().st_size > 10_000  # drawn, not blank
-    assert _png_size(path) == heatmap_size(3) == (650, 580)
+    assert _png_size(path) == heatmap_size(3) == (690, 580)
     # the size depends on the number of players only, not on their names' lengths
     cell = {"value": 0.73, "low": 0.68, "high": 0.78}
     five = {"players": ["x" * 60, *"bcde"], "games": 1,
             "point_win_rate": [[None if i == j else cell for j in range(5)] for i in range(5)]}
-    assert _png_size(heatmap(five, tmp_path / "five.png")) == heatmap_size(5) == (910, 840)
+    assert _png_size(heatmap(five, tmp_path / "five.png")) == heatmap_size(5) == (950, 840)
 
 
 # ---- rallysim evaluate --mode competitive ----

@@ -715,7 +715,8 @@ def _evaluate_crossplay(args: argparse.Namespace) -> dict:
     for name, row in zip(names, result["point_win_rate"], strict=True):
         cells = ("-" if c is None else _estimate(c) for c in row)
         print(f"{name:{width}s}  " + "  ".join(f"{c:>{width}s}" for c in cells))
-    print("OpenSkill ratings (Plackett-Luce), best ordinal (mu - 3 sigma) first")
+    print("OpenSkill ratings (Plackett-Luce, each point a match), best ordinal (mu - 3 sigma) "
+          "first")
     for r in result["table"]:
         print(f"  {r['name']:{width}s}  mu {r['mu']:6.2f}  sigma {r['sigma']:5.2f}  "
               f"ordinal {r['ordinal']:6.2f}")

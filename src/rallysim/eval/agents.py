@@ -30,6 +30,8 @@ AGENT_NAMES = {
     "hrl": "the shipped cooperative HRL agent (simple_high over simple_low)",
     "mono": "the shipped cooperative Monolithic agent (simple_mono)",
     "simple_compete": "the shipped competitive champion (simple_compete_high over simple_low)",
+    "fixed:G": "always the goal G (the landing depth in m: 2 to 6), the shipped low level; "
+               "fixed:6, always deep, is the reference ladder's top rung",
 }
 
 
@@ -84,6 +86,8 @@ def agent(name: str, player: str | PlayerSpec = "simple", seed: int = 0,
                             name, p)
     if name == "mono":
         return Direct(resolve("pretrained", "mono", p), name)
+    if name.startswith("fixed:"):
+        return Hierarchical(resolve(name, "high", p), resolve(low, "rally_low", p), name, p)
     prefix = PRETRAINED / f"{p.name}_compete_high" if name == f"{p.name}_compete" else Path(name)
     if name == f"{p.name}_compete" and not prefix.with_suffix(".json").is_file():
         # a valid name whose policy is missing: "unknown" (listing the name as valid) misled

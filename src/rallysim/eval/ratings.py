@@ -1,26 +1,37 @@
-"""OpenSkill ratings of competitive players from the games they played.
+"""OpenSkill ratings of competitive players from the points they played.
 
-Each game is one two-player match of OpenSkill's Plackett-Luce model, winner first. A game
-stopped unfinished (``Games.winner == -1``: two players that never miss replay lets until
-``max_decisions``) counts by its score: the leader wins, a level score is a draw; one stopped
-before any point was scored says nothing about either player and is left out.
+**Each point (rally) is one two-player match** of OpenSkill's Plackett-Luce model, its winner
+first (``rate_points``). Rating whole games instead saturates: a player that wins every game
+against a ladder gets the same rating however many points it concedes, so snapshots that all
+win every rating game cannot be told apart. Points never saturate (a low level that misses
+now and then concedes some), and a game gives some 20 to 40 of them. ``Ratings.update(...,
+unit="game")`` still rates games (a game stopped unfinished counts by its score: the leader
+wins, a level score is a draw; one stopped before any point is left out).
 
-Ratings are deterministic: games are rated one at a time in their order in ``Games``, and a
-player is known by its name only (OpenSkill's rating objects carry random ids; they are made
-afresh for every match and never stored). ``Ratings.to_json`` and ``from_json`` round-trip
-every float exactly (JSON writes a float's shortest repr), so a training run that resumes
-carries on with the same numbers.
+Every player RallySim rates is a frozen policy, whose skill cannot drift between its points:
+the model's dynamics ``tau`` is 0 (OpenSkill's default 25/300 would make a rating forget its
+early points). Matches are rated one at a time, which makes the result depend slightly on
+their order: ``rate_points`` takes the points of several pairings interleaved (the first point
+of each pairing in turn, then the second, ...), so that no opponent's points come last.
+
+Ratings are deterministic: a player is known by its name only (OpenSkill's rating objects
+carry random ids; they are made afresh for every match and never stored). ``Ratings.to_json``
+and ``from_json`` round-trip every float exactly (JSON writes a float's shortest repr), so a
+training run that resumes carries on with the same numbers.
 
 ``REFERENCE_LADDER`` names the fixed players (random goals, the scripted controller, the
-shipped HRL and Monolithic agents) that a learner is rated against; ``rate_against`` plays a
-player against them and moves its rating only, so the ladder stays the fixed yardstick that
-makes the learner's ordinal comparable over a run.
+shipped HRL and Monolithic agents, and a fixed deep goal over the shipped low level, a rung as
+strong as a trained champion) that a learner is rated against. ``calibrate`` rates the ladder
+first, by a round-robin of its players; ``rate_against`` then plays a player against each rung
+and moves that player's rating only, so the calibrated ladder stays the fixed yardstick that
+makes ordinals comparable over a run and between runs.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Collection, Iterable, Mapping
+from collections.abc import Callable, Collection, Iterable, Mapping, Sequence
+from itertools import combinations
 from typing import Any
 
 import numpy as np
@@ -28,15 +39,19 @@ from openskill.models import PlackettLuce
 
 from rallysim.eval.agents import Agent, agent
 from rallysim.eval.competitive import DEFAULT_MAX_DECISIONS, Games, play_games
+from rallysim.players import PlayerSpec
+from rallysim.policies.types import LowLevel
 
 MODEL = "PlackettLuce"
-# the models' defaults (openskill 6): mu 25, sigma mu/3, beta sigma/2, tau mu/300. Written into
-# every JSON document so that a later openskill with other defaults rates a resumed run alike
-DEFAULTS = {"mu": 25.0, "sigma": 25.0 / 3.0, "beta": 25.0 / 6.0, "tau": 25.0 / 300.0}
+# openskill 6's defaults (mu 25, sigma mu/3, beta sigma/2) but no dynamics (tau 0; openskill's
+# is mu/300): the players rated are frozen policies (see the module). Written into every JSON
+# document, so that a later openskill with other defaults rates a resumed run alike
+DEFAULTS = {"mu": 25.0, "sigma": 25.0 / 3.0, "beta": 25.0 / 6.0, "tau": 0.0}
 
 A_WON, B_WON, DRAW, NO_RESULT = 0, 1, -1, -2
+UNITS = ("point", "game")
 
-REFERENCE_LADDER: tuple[str, ...] = ("random", "scripted", "hrl", "mono")
+REFERENCE_LADDER: tuple[str, ...] = ("random", "scripted", "hrl", "mono", "fixed:6")
 
 Say = Callable[[str], None]
 
@@ -48,6 +63,18 @@ def game_outcomes(games: Games) -> np.ndarray:
     by_score = np.where(a > b, A_WON, np.where(b > a, B_WON, DRAW))
     by_score[(a + b) == 0] = NO_RESULT
     return np.where(games.winner >= 0, games.winner, by_score).astype(np.int64)
+
+
+def point_outcomes(games: Games) -> np.ndarray:
+    """Per point, in the order played: ``A_WON`` or ``B_WON``."""
+    return np.where(games.point_a_won, A_WON, B_WON).astype(np.int64)
+
+
+def outcomes(games: Games, unit: str = "point") -> np.ndarray:
+    """The matches ``games`` holds: its points or its games (see the module)."""
+    if unit not in UNITS:
+        raise ValueError(f"unit must be one of {UNITS}, got {unit!r}")
+    return point_outcomes(games) if unit == "point" else game_outcomes(games)
 
 
 class Ratings:
@@ -107,9 +134,11 @@ class Ratings:
             if name not in fixed:
                 self.players[name] = (float(new.mu), float(new.sigma))
 
-    def update(self, a: str, b: str, games: Games, fixed: Collection[str] = ()) -> None:
-        """Rate every game of ``play_games(a, b)``, in order (see the module)."""
-        for outcome in game_outcomes(games):
+    def update(self, a: str, b: str, games: Games, fixed: Collection[str] = (),
+               unit: str = "point") -> None:
+        """Rate ``play_games(a, b)``: every point in the order played (``unit="point"``), or
+        every game in order (``unit="game"``; see the module)."""
+        for outcome in outcomes(games, unit):
             self.rate(a, b, int(outcome), fixed)
 
     def table(self, names: Iterable[str] | None = None) -> list[dict[str, Any]]:
@@ -148,29 +177,82 @@ def _number(value: Any, where: str) -> float:
     return float(value)
 
 
+Match = tuple[str, str, Games]
+
+
+def rate_points(ratings: Ratings, matches: Sequence[Match], fixed: Collection[str] = (),
+                unit: str = "point") -> None:
+    """Rate the points (or games) of several pairings ``(a, b, games)``, interleaved: the
+    first point of each pairing in turn, then the second, and so on (see the module); the
+    names in ``fixed`` keep their ratings."""
+    streams = [(a, b, outcomes(games, unit)) for a, b, games in matches]
+    longest = max((len(o) for _, _, o in streams), default=0)
+    for k in range(longest):
+        for a, b, o in streams:
+            if k < len(o):
+                ratings.rate(a, b, int(o[k]), fixed)
+
+
+def calibrate(ladder: Iterable[str] = REFERENCE_LADDER, games: int = 16, seed: int = 0,
+              max_decisions: int = DEFAULT_MAX_DECISIONS, shuttle: str = "paper",
+              low: LowLevel | str = "pretrained", player: str | PlayerSpec = "simple",
+              say: Say | None = None, played: Mapping[tuple[str, str], Games] | None = None,
+              unit: str = "point") -> tuple[Ratings, dict[tuple[str, str], Games]]:
+    """Rate the ladder among itself: every pair of its players plays ``games`` games (each
+    pair with ``seed``, as ``crossplay`` plays them; a pair found in ``played`` is not played
+    again), and all their points are rated together, from OpenSkill's defaults. A ladder of
+    one player keeps the defaults. Returns the ratings (every rung in them) and the games."""
+    ladder = list(ladder)
+    if len(set(ladder)) != len(ladder):
+        raise ValueError(f"each ladder player may appear once, got {ladder}")
+    games_by_pair = dict(played or {})
+    for a, b in combinations(ladder, 2):
+        if (a, b) not in games_by_pair:
+            if say:
+                say(f"[ratings] calibrating the ladder: {a} vs {b}, {games} games")
+            games_by_pair[a, b] = play_games(agent(a, player, low=low), agent(b, player, low=low),
+                                             games, seed, shuttle, max_decisions)
+    ratings = Ratings()
+    rate_points(ratings, [(a, b, games_by_pair[a, b]) for a, b in combinations(ladder, 2)],
+                unit=unit)
+    for name in ladder:  # rung never rated (a ladder of one): the defaults, stored
+        ratings.players.setdefault(name, ratings.get(name))
+    return ratings, {pair: games_by_pair[pair] for pair in combinations(ladder, 2)}
+
+
 def rate_against(ratings: Ratings, name: str, player: Agent,
                  ladder: Iterable[str] = REFERENCE_LADDER, games: int = 16, seed: int = 0,
                  max_decisions: int = DEFAULT_MAX_DECISIONS, shuttle: str = "paper",
-                 say: Say | None = None) -> dict[str, dict[str, Any]]:
+                 say: Say | None = None, low: LowLevel | str = "pretrained",
+                 spec: str | PlayerSpec = "simple", unit: str = "point") -> dict[str, Games]:
     """Play ``player`` (rated as ``name``) against each ladder player in order, ``games``
-    games each, and update ``name``'s rating only: the ladder's ratings are the fixed anchors,
-    and must be in ``ratings`` already (rate the ladder once, e.g. with
-    ``rallysim.eval.crossplay.crossplay(list(REFERENCE_LADDER), ...)["ratings"]``). Returns
-    each opponent's ``Games`` point and game counts."""
+    games each with ``seed`` (the games ``crossplay`` plays for that pair), the rungs'
+    hierarchical players over the low level ``low``; rate all those points interleaved
+    (``rate_points``) and move ``name``'s rating only: the ladder's ratings are the fixed
+    anchors, and must be in ``ratings`` already (``calibrate`` them first). Returns each
+    opponent's ``Games``."""
     ladder = list(ladder)
     missing = [n for n in ladder if n not in ratings]
     if missing:
         raise ValueError(f"the ladder players {missing} have no rating yet: rate the ladder "
-                         "first (crossplay of the ladder), then rate against it")
+                         "first (calibrate), then rate against it")
     if name in ladder:
         raise ValueError(f"{name!r} is a ladder player: give the rated player another name")
     results = {}
     for opponent in ladder:
         if say:
             say(f"[ratings] {name} vs {opponent}: {games} games")
-        played = play_games(player, agent(opponent), games, seed, shuttle, max_decisions)
-        ratings.update(name, opponent, played, fixed=ladder)
-        results[opponent] = {"points": played.points.sum(axis=0).tolist(),
-                             "games_won": int((played.winner == 0).sum()),
-                             "games_lost": int((played.winner == 1).sum())}
+        results[opponent] = play_games(player, agent(opponent, spec, low=low), games, seed,
+                                       shuttle, max_decisions)
+    rate_points(ratings, [(name, o, g) for o, g in results.items()], fixed=ladder, unit=unit)
     return results
+
+
+def counts(games: Games) -> dict[str, Any]:
+    """The first player's points (won, lost), games won and lost, and point-win rate (None:
+    no point played)."""
+    rate = games.point_win_rate
+    return {"points": games.points.sum(axis=0).tolist(),
+            "games_won": int((games.winner == 0).sum()),
+            "games_lost": int((games.winner == 1).sum()),
+            "point_win_rate": rate if math.isfinite(rate) else None}

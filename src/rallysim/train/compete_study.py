@@ -11,9 +11,13 @@ Per seed (``seed`` step, one process each, so seeds can run side by side):
    (``league.opponents``) for ``br_budget`` turns; its point-win rate against the champion
    measures the champion's exploitability.
 
-``report`` pools the seeds (a two-level bootstrap: seeds, then games), plays the cross-play
-matrix of the reference ladder and the best seed's champion, draws the figures and writes
-``OUT/compete_study.json``; ``docs`` renders that JSON's tables (docs/competitive.md holds them
+``report`` pools the seeds (a two-level bootstrap: seeds, then games); calibrates the reference
+ladder (``rallysim.eval.ratings.calibrate``) and rates every seed's snapshots and champion
+against it held fixed (``rate_against``, each point a match), from the league's pool on disk,
+not the ratings logged during training; plays the cross-play matrix of the ladder and every
+seed's snapshots and champion (within a seed every pair; across seeds, champion against
+champion); draws the figures and writes ``OUT/compete_study.json`` and
+``OUT/ladder_ratings.json``; ``docs`` renders that JSON's tables (docs/competitive.md holds them
 between generated-block markers, checked by a test like docs/results.md's).
 
     python -m rallysim.train.compete_study seed --seed 0 --out runs/compete_study
@@ -25,6 +29,8 @@ from __future__ import annotations
 import argparse
 import itertools
 import json
+import math
+import pickle
 import sys
 import time
 from pathlib import Path
@@ -109,11 +115,78 @@ def pooled_rate(per_seed: list[dict[str, list[int]]], n_boot: int = 2000,
     return {"value": float(value), "low": float(low), "high": float(high)}
 
 
+def snapshots(league_dir: Path) -> list[dict[str, Any]]:
+    """A league's snapshots, oldest first: ``{"name": path prefix, "turns"}``."""
+    files = sorted((Path(league_dir) / "pool").glob("snapshot_*.json"))
+    return [{"name": str(f.with_suffix("")), "turns": int(f.stem.split("_")[1])}
+            for f in files]
+
+
+def _champion_turns(champion: str) -> int | None:
+    doc = json.loads(Path(champion).with_suffix(".json").read_text())
+    steps = (doc.get("metadata") or {}).get("steps")
+    return int(steps) if steps is not None else None
+
+
+def rate_snapshots(seeds: list[dict[str, Any]], games: int, seed: int, max_decisions: int,
+                   played: dict[tuple[str, str], Any] | None = None,
+                   say: Any = None) -> dict[str, Any]:
+    """The reference ladder calibrated (a round-robin of ``games`` games per pair), then
+    every snapshot and champion of every seed rated against it held fixed
+    (``rate_against``: each point a match), then the games between the snapshots and champion
+    of each seed and between the seeds' champions. All games with ``seed``. Returns the
+    calibrated ladder, the ratings, each seed's rated players and every game played."""
+    from rallysim.eval.agents import agent
+    from rallysim.eval.crossplay import play_pairs
+    from rallysim.eval.ratings import (
+        REFERENCE_LADDER,
+        Ratings,
+        calibrate,
+        counts,
+        rate_against,
+        rate_points,
+    )
+
+    ladder = list(REFERENCE_LADDER)
+    common = {"games": games, "seed": seed, "max_decisions": max_decisions}
+    played = {} if played is None else played
+    calibrated, ladder_games = calibrate(ladder, say=say, played=played, **common)
+    played.update(ladder_games)
+    ratings = Ratings.from_json(calibrated.to_json())
+    groups = {}
+    for s in seeds:
+        members = [*snapshots(Path(s["champion"]).parent),
+                   {"name": s["champion"], "turns": _champion_turns(s["champion"]),
+                    "champion": True}]
+        for m in members:
+            if all((m["name"], rung) in played for rung in ladder):  # reuse: rate, no replay
+                result = {rung: played[m["name"], rung] for rung in ladder}
+                rate_points(ratings, [(m["name"], r, g) for r, g in result.items()],
+                            fixed=ladder)
+            else:
+                result = rate_against(ratings, m["name"], agent(m["name"]), ladder, say=say,
+                                      **common)
+            played.update({(m["name"], rung): g for rung, g in result.items()})
+            mu, sigma = ratings.get(m["name"])
+            m.update(rating=ratings.ordinal(m["name"]), mu=mu, sigma=sigma,
+                     versus={rung: counts(g) for rung, g in result.items()})
+        names = [m["name"] for m in members]
+        play_pairs(names, list(itertools.combinations(names, 2)), say=say, played=played,
+                   **common)
+        groups[s["seed"]] = members
+    champions = [s["champion"] for s in seeds]
+    play_pairs(champions, list(itertools.combinations(champions, 2)), say=say, played=played,
+               **common)
+    return {"ladder": calibrated, "ratings": ratings, "groups": groups, "played": played}
+
+
 def report(out: Path, games: int, max_decisions: int = 20_000,
-           figures: Path | None = None) -> dict[str, Any]:
-    """Pool the seeds' JSON in ``out``, play the cross-play matrix, draw the figures, write
-    ``out/compete_study.json``."""
-    from rallysim.eval.crossplay import crossplay, heatmap
+           figures: Path | None = None, crossplay_games: int = 16) -> dict[str, Any]:
+    """Pool the seeds' JSON in ``out``, calibrate the ladder, rate every seed's snapshots
+    against it, play the cross-play matrix (the ladder, each seed's snapshots and champion),
+    draw the figures, write ``out/compete_study.json`` and ``out/ladder_ratings.json``."""
+    from rallysim.eval.crossplay import heatmap, matrix, submatrix
+    from rallysim.eval.ratings import REFERENCE_LADDER
 
     seeds = [json.loads(p.read_text()) for p in sorted(out.glob("seed*.json"))]
     if not seeds:
@@ -122,25 +195,80 @@ def report(out: Path, games: int, max_decisions: int = 20_000,
                                                   for s in seeds]) for name in OPPONENTS}
     pooled["best_response"] = pooled_rate([s["best_response"]["per_game"] for s in seeds])
     best = max(seeds, key=lambda s: s["versus"]["scripted"]["point_win_rate"]["value"])
-    names = ["random", "scripted", "hrl", "mono", best["champion"]]
     t0 = time.perf_counter()
-    matrix = crossplay(names, games, EVAL_SEED + 100, max_decisions, say=say_stderr)
+    cp_seed = EVAL_SEED + 100
+    # the games are kept (pickled Games) so that a report drawn again replays none of them
+    cache = out / f"crossplay_games_{crossplay_games}_{cp_seed}_{max_decisions}.pkl"
+    played = pickle.loads(cache.read_bytes()) if cache.is_file() else {}
+    rated = rate_snapshots(seeds, crossplay_games, cp_seed, max_decisions, played,
+                           say=say_stderr)
+    cache.write_bytes(pickle.dumps(rated["played"]))
+    ladder = list(REFERENCE_LADDER)
+    ladder_json = {**rated["ladder"].to_json(), "table": rated["ladder"].table(),
+                   "games": crossplay_games, "seed": cp_seed, "max_decisions": max_decisions,
+                   "unit": "point"}
+    groups = rated["groups"]
+    names = [*ladder, *(m["name"] for s in seeds for m in groups[s["seed"]])]
+    full = matrix(names, rated["played"], crossplay_games, cp_seed, max_decisions,
+                  ratings=rated["ratings"])
+    labels = {m["name"]: _member_label(s["seed"], m) for s in seeds for m in groups[s["seed"]]}
+    rows = []
+    for s in seeds:
+        row = _seed_row(s)
+        row["snapshots"] = [{k: m[k] for k in ("name", "turns", "rating", "mu", "sigma",
+                                                  "versus")} for m in groups[s["seed"]]
+                            if not m.get("champion")]
+        champ = groups[s["seed"]][-1]
+        row["champion_rating"] = {k: champ[k] for k in ("turns", "rating", "mu", "sigma",
+                                                          "versus")}
+        row["ratings"] = [{"turns": m["turns"], "rating": m["rating"]} for m in row["snapshots"]]
+        row["ratings_falls"] = falls(row["snapshots"])
+        row["ratings_monotonic"] = not row["ratings_falls"]
+        row["ratings_no_clear_fall"] = all(f["sigmas"] < 2.0 for f in row["ratings_falls"])
+        rows.append(row)
     result = {
         "kind": "compete_study", "opponents": list(OPPONENTS),
-        "seeds": [_seed_row(s) for s in seeds], "pooled": pooled,
+        "seeds": rows, "pooled": pooled,
         "targets": TARGETS, "best_seed": best["seed"],
-        "checks": _checks(seeds, pooled),
-        "crossplay": {**matrix, "wall_s": round(time.perf_counter() - t0, 1)},
-        "settings": {k: seeds[0][k] for k in ("budget", "br_budget", "games",
-                                               "max_decisions", "overrides")},
+        "checks": _checks(seeds, pooled, rows),
+        "ladder": ladder_json,
+        "crossplay": {**full, "labels": labels,
+                      "wall_s": round(time.perf_counter() - t0, 1)},
+        "settings": {**{k: seeds[0][k] for k in ("budget", "br_budget", "games",
+                                                  "max_decisions", "overrides")},
+                     "crossplay_games": crossplay_games},
     }
     (out / "compete_study.json").write_text(json.dumps(result, indent=1))
+    (out / "ladder_ratings.json").write_text(json.dumps(ladder_json, indent=1))
     if figures is not None:
         figures.mkdir(parents=True, exist_ok=True)
-        heatmap(matrix, figures / "compete_crossplay.png")
-        _rating_figure(seeds, figures / "compete_ratings.png")
+        top = [*names[:len(ladder)], *(s["champion"] for s in seeds)]
+        heatmap(submatrix(full, top), figures / "compete_crossplay.png", labels=labels,
+                title="the ladder and the champions")
+        for s in seeds:
+            group = [*names[:len(ladder)], *(m["name"] for m in groups[s["seed"]])]
+            heatmap(submatrix(full, group), figures / f"compete_crossplay_seed{s['seed']}.png",
+                    labels=labels, title=f"the ladder and seed {s['seed']}'s snapshots")
+        _rating_figure(rows, ladder_json, figures / "compete_ratings.png")
         _exploitability_figure(seeds, pooled, figures / "compete_exploitability.png")
     return result
+
+
+def falls(snaps: list[dict[str, Any]]) -> list[dict[str, float]]:
+    """Each time a snapshot's ordinal is below its predecessor's: by how much, and in sigmas
+    of the difference (``sqrt(sigma_a^2 + sigma_b^2)``; under 2: not a clear fall)."""
+    out = []
+    for a, b in itertools.pairwise(snaps):
+        if b["rating"] < a["rating"]:
+            by = a["rating"] - b["rating"]
+            out.append({"from_turns": a["turns"], "to_turns": b["turns"], "by": by,
+                        "sigmas": by / math.hypot(a["sigma"], b["sigma"])})
+    return out
+
+
+def _member_label(seed: int, m: dict[str, Any]) -> str:
+    turns = "?" if m["turns"] is None else f"{m['turns'] / 1000:.0f}k"
+    return f"s{seed} champion {turns}" if m.get("champion") else f"s{seed} snap {turns}"
 
 
 def _seed_row(s: dict[str, Any]) -> dict[str, Any]:
@@ -149,10 +277,13 @@ def _seed_row(s: dict[str, Any]) -> dict[str, Any]:
             "game_win_vs_scripted": s["versus"]["scripted"]["game_win_rate"],
             "best_response": s["best_response"]["point_win_rate"],
             "ratings": s["ratings"], "ratings_monotonic": s["ratings_monotonic"],
+            "ratings_training": s["ratings"],
+            "ratings_training_monotonic": s["ratings_monotonic"],
             "wall_s": s["wall_s"]}
 
 
-def _checks(seeds: list[dict[str, Any]], pooled: dict[str, Any]) -> dict[str, bool]:
+def _checks(seeds: list[dict[str, Any]], pooled: dict[str, Any],
+            rows: list[dict[str, Any]]) -> dict[str, bool]:
     worst = {n: min(s["versus"][n]["point_win_rate"]["value"] for s in seeds)
              for n in OPPONENTS}
     return {
@@ -161,7 +292,9 @@ def _checks(seeds: list[dict[str, Any]], pooled: dict[str, Any]) -> dict[str, bo
         "every_seed_80pct_vs_scripted": worst["scripted"] >= 0.8,
         "every_seed_80pct_vs_hrl": worst["hrl"] >= 0.8,
         "best_response_at_most_60pct": pooled["best_response"]["value"] <= 0.6,
-        "ratings_monotonic_in_2_of_3": sum(s["ratings_monotonic"] for s in seeds) >= 2,
+        "ratings_monotonic_in_2_of_3": sum(r["ratings_monotonic"] for r in rows) >= 2,
+        "ratings_never_fall_by_2_sigma_in_2_of_3": sum(r["ratings_no_clear_fall"]
+                                                       for r in rows) >= 2,
     }
 
 
@@ -174,17 +307,27 @@ def _figure(width: float, height: float) -> Any:
     return fig
 
 
-def _rating_figure(seeds: list[dict[str, Any]], path: Path) -> None:
-    fig = _figure(6, 3.6)
+def _rating_figure(rows: list[dict[str, Any]], ladder: dict[str, Any], path: Path) -> None:
+    fig = _figure(8, 4.2)
     ax = fig.add_subplot()
-    for s in seeds:
-        rows = [r for r in s["ratings"] if r["rating"] is not None]
-        ax.plot([r["turns"] / 1000 for r in rows], [r["rating"] for r in rows], marker="o",
-                label=f"seed {s['seed']}")
-    ax.set_xlabel("learner turns when snapshotted (thousands)")
-    ax.set_ylabel("OpenSkill ordinal vs the ladder")
-    ax.set_title("Snapshot ratings against the fixed ladder")
-    ax.legend()
+    for r in rows:
+        snaps = r["snapshots"]
+        line = ax.errorbar([m["turns"] / 1000 for m in snaps], [m["rating"] for m in snaps],
+                           yerr=[m["sigma"] for m in snaps], marker="o", capsize=3,
+                           label=f"seed {r['seed']}")
+        c = r["champion_rating"]
+        if c["turns"] is not None:
+            ax.plot([c["turns"] / 1000], [c["rating"]], marker="*", markersize=12,
+                    color=line[0].get_color(), linestyle="none")
+    for row in ladder["table"]:
+        ax.axhline(row["ordinal"], color="grey", linestyle=":", linewidth=0.8)
+        ax.text(0.005, row["ordinal"], row["name"], transform=ax.get_yaxis_transform(),
+                ha="left", va="bottom", fontsize=7, color="grey")
+    ax.set_xlabel("learner turns when snapshotted (thousands); star: the champion")
+    ax.set_ylabel("OpenSkill ordinal (mu - 3 sigma)")
+    ax.set_title("Snapshot ratings against the calibrated ladder (dotted), bars: 1 sigma",
+                 fontsize=10)
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0))
     fig.tight_layout()
     fig.savefig(path)
 
@@ -215,9 +358,15 @@ def _cell(e: dict[str, float] | None) -> str:
         f"{e['value']:.3f} [{e['low']:.3f}, {e['high']:.3f}]")
 
 
+def _rate(value: float | None) -> str:
+    return "—" if value is None else f"{value:.3f}"
+
+
 def render(result: dict[str, Any]) -> str:
     """The study's tables for docs/competitive.md."""
     st, opponents = result["settings"], result["opponents"]
+    cp, lad = result["crossplay"], result["ladder"]
+    rungs = [r for r in cp["players"] if r in lad["players"]]
     lines = [
         f"{len(result['seeds'])} training seeds; league budget {st['budget']:,} turns, best "
         f"response {st['br_budget']:,} turns; {st['games']} evaluation games per pair; games "
@@ -234,29 +383,56 @@ def render(result: dict[str, Any]) -> str:
     p = result["pooled"]
     lines.append("| pooled | " + " | ".join(_cell(p[f"champion_vs_{n}"]) for n in opponents)
                  + f" | {_cell(p['best_response'])} | |")
-    lines += ["", "Snapshot ratings (OpenSkill ordinal against the fixed ladder), oldest first:",
-              ""]
-    strict = 0
+    lines += ["", f"The reference ladder, calibrated by a round-robin of {lad['games']} games "
+              f"per pair (seed {lad['seed']}, each point a match), best first:", "",
+              "| rung | mu | sigma | ordinal |", "|---|---|---|---|"]
+    lines += [f"| {r['name']} | {r['mu']:.2f} | {r['sigma']:.2f} | {r['ordinal']:.2f} |"
+              for r in lad["table"]]
+    lines += ["", "Snapshot ratings (OpenSkill ordinal against the calibrated ladder held fixed, "
+              f"{lad['games']} games against each rung, each point a match), oldest first, "
+              "then the champion:", ""]
     for s in result["seeds"]:
-        values = [r["rating"] for r in s["ratings"] if r["rating"] is not None]
-        strict += all(b > a for a, b in itertools.pairwise(values))
+        values = [r["rating"] for r in s["ratings"]]
+        down = s["ratings_falls"]
+        fell = (f"falls {len(down)} time{'s' if len(down) > 1 else ''}, by at most "
+                f"{max(f['by'] for f in down):.2f} = "
+                f"{max(f['sigmas'] for f in down):.2f} sigma of the difference" if down
+                else "never falls")
+        lines.append(f"- seed {s['seed']}: {', '.join(f'{v:.2f}' for v in values)}; champion "
+                     f"{s['champion_rating']['rating']:.2f} ({fell})")
+    rising = sum(s["ratings_monotonic"] for s in result["seeds"])
+    clear = sum(not s["ratings_no_clear_fall"] for s in result["seeds"])
+    lines += ["", f"Rising at every snapshot on {rising} of {len(result['seeds'])} seeds; a fall "
+              f"of 2 sigma or more on {clear}.", "",
+              "As logged during training (the previous rating: each game a match, the ladder at "
+              "OpenSkill's defaults, 8 games per rung):", ""]
+    for s in result["seeds"]:
+        values = [r["rating"] for r in s["ratings_training"] if r["rating"] is not None]
         lines.append(f"- seed {s['seed']}: {', '.join(f'{v:.2f}' for v in values)}")
-    lines += ["", f"Never falling on {sum(s['ratings_monotonic'] for s in result['seeds'])} of "
-              f"{len(result['seeds'])} seeds; strictly rising on {strict}."]
-    cp = result["crossplay"]
-    names = [_short(n, result) for n in cp["players"]]
-    lines += ["", f"Cross-play (point-win rate of row against column, {cp['games']} games per "
-              "pair):", "", "| | " + " | ".join(names) + " |",
+    lines += ["", "Each snapshot's and champion's point-win rate against each rung (the games "
+              "of its rating):", "",
+              "| player | turns | ordinal | " + " | ".join(rungs) + " |",
+              "|---|---|---|" + "---|" * len(rungs)]
+    for s in result["seeds"]:
+        for m in [*s["snapshots"], {**s["champion_rating"], "champion": True}]:
+            who = f"seed {s['seed']} {'champion' if m.get('champion') else 'snapshot'}"
+            lines.append(f"| {who} | {m['turns']:,} | {m['rating']:.2f} | " + " | ".join(
+                _rate(m["versus"][r]["point_win_rate"]) for r in rungs) + " |")
+    champions = [s["champion"] for s in result["seeds"]]
+    index = [cp["players"].index(n) for n in [*rungs, *champions]]
+    names = [*rungs, *(f"champion s{s['seed']}" for s in result["seeds"])]
+    lines += ["", f"Cross-play of the ladder and the champions (point-win rate of row against "
+              f"column, {cp['games']} games per pair):", "", "| | " + " | ".join(names) + " |",
               "|---|" + "---|" * len(names)]
-    for i, row in enumerate(cp["point_win_rate"]):
-        lines.append(f"| {names[i]} | " + " | ".join(_cell(c) for c in row) + " |")
-    lines += ["", "Checks: " + ", ".join(f"`{k}` **{'yes' if v else 'no'}**"
-                                         for k, v in result["checks"].items()) + ".", ""]
+    for k, i in enumerate(index):
+        lines.append(f"| {names[k]} | "
+                     + " | ".join(_cell(cp["point_win_rate"][i][j]) for j in index) + " |")
+    lines += ["", f"The whole matrix ({len(cp['players'])} players: the ladder and every seed's "
+              f"snapshots and champion; {len(cp['pairs'])} pairs played, players of different "
+              "seeds only champion against champion) is `crossplay` in the JSON.", "",
+              "Checks: " + ", ".join(f"`{k}` **{'yes' if v else 'no'}**"
+                                     for k, v in result["checks"].items()) + ".", ""]
     return "\n".join(lines)
-
-
-def _short(name: str, result: dict[str, Any]) -> str:
-    return f"champion (seed {result['best_seed']})" if "/" in name else name
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -266,6 +442,9 @@ def main(argv: list[str] | None = None) -> int:
     one.add_argument("--seed", type=int, required=True)
     rep = sub.add_parser("report", help="pool the seeds, cross-play, figures, JSON")
     rep.add_argument("--figures", type=Path, default=None)
+    rep.add_argument("--crossplay-games", type=int, default=16,
+                     help="games per pair of the ladder's calibration, the snapshots' ratings "
+                          "and the cross-play matrix")
     for p in (one, rep):
         p.add_argument("--out", type=Path, required=True)
         p.add_argument("--games", type=int, default=32)
@@ -282,7 +461,8 @@ def main(argv: list[str] | None = None) -> int:
                         args.max_decisions, parse_overrides(args.set))
         print(f"wrote {path}")
     else:
-        result = report(args.out, args.games, args.max_decisions, args.figures)
+        result = report(args.out, args.games, args.max_decisions, args.figures,
+                        args.crossplay_games)
         print(render(result))
     return 0
 

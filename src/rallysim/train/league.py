@@ -11,9 +11,12 @@ files (``RUN/pool/snapshot_{turns:012d}.{safetensors,json}``). A game draws its 
 
 A snapshot is taken when the run starts (the untrained learner), every
 ``league.snapshot_every`` turns, and early once the learner has won ``league.win_threshold``
-of the last ``league.win_points`` or more training points against the pool. Each new snapshot
-plays ``league.rating_games`` games against every agent of ``league.ladder``; OpenSkill rates
-them (``rallysim.eval.ratings``), and the ratings go to the run's TensorBoard log and its
+of the last ``league.win_points`` or more training points against the pool. The agents of
+``league.ladder`` are first rated among themselves (``rallysim.eval.ratings.calibrate``: a
+round-robin of ``league.rating_games`` games per pair); then each new snapshot plays
+``league.rating_games`` games against every one of them and is rated with the ladder held
+fixed (``rallysim.eval.ratings.rate_against``, each point a match, the function the study
+and ``rallysim evaluate`` use too). The ratings go to the run's TensorBoard log and its
 checkpoints. With ``league.opponents`` set, the pool is those agents alone, fixed: the stage
 then trains a best response (exploitability) and takes no snapshots.
 
@@ -133,25 +136,30 @@ class League:
         return record
 
     def rate(self, name: str) -> dict[str, Any]:
-        """Games of snapshot ``name`` against the ladder, rated with OpenSkill: its rating
-        and its point-win rate against each ladder agent."""
+        """Snapshot ``name``'s games against the ladder, rated by
+        ``rallysim.eval.ratings.rate_against`` (each point a match) with the calibrated
+        ladder held fixed: its rating and its point-win rate against each ladder agent. The
+        first call calibrates the ladder (``calibrate``: a round-robin of its agents); the
+        calibrated ratings are kept with the snapshots' in ``self.ratings``."""
         s = self.config.league
         if not s.rating_games:
             return {}
-        from rallysim.eval.competitive import play_games
-        from rallysim.eval.ratings import Ratings
+        from rallysim.eval.ratings import Ratings, calibrate, rate_against
 
+        ladder = s.names(s.ladder)
+        common = {"games": s.rating_games, "seed": self.config.eval.seed,
+                  "max_decisions": s.rating_decisions, "shuttle": self.config.shuttle,
+                  "low": self.low}
         ratings = Ratings.from_json(self.ratings) if self.ratings else Ratings()
-        me = self.snapshot_agent(name)
-        rates: dict[str, float] = {}
-        for i, other in enumerate(s.names(s.ladder)):
-            games = play_games(me, self._agent(other), s.rating_games,
-                               seed=self.config.eval.seed + i, shuttle=self.config.shuttle,
-                               max_decisions=s.rating_decisions)
-            ratings.update(name, other, games, fixed=s.names(s.ladder))
-            rates[other] = games.point_win_rate
+        if any(rung not in ratings for rung in ladder):
+            calibrated, _ = calibrate(ladder, player=self.config.player, **common)
+            for rung in ladder:
+                ratings.players[rung] = calibrated.get(rung)
+        played = rate_against(ratings, name, self.snapshot_agent(name), ladder,
+                              spec=self.config.player, **common)
         self.ratings = ratings.to_json()
-        return {"rating": ratings.ordinal(name), "point_win_rate": rates}
+        return {"rating": ratings.ordinal(name),
+                "point_win_rate": {other: g.point_win_rate for other, g in played.items()}}
 
     # -- resume ---------------------------------------------------------------------------------
     def state(self) -> dict[str, Any]:

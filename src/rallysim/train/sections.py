@@ -145,9 +145,9 @@ class LeagueSettings:
     opponents: str = "none"
     max_decisions: int = 20_000  # per training game (lets between non-missing players)
     eval_opponents: str = "scripted,hrl"  # the point-win rates an evaluation reports
-    rating_games: int = 8  # games per ladder agent when a snapshot is rated
+    rating_games: int = 8  # games per pair: the ladder's round-robin, a snapshot vs each rung
     rating_decisions: int = 5_000  # ... each stopped after this many decisions (by its score)
-    ladder: str = "random,scripted,hrl,mono"  # the reference agents snapshots are rated against
+    ladder: str = "random,scripted,hrl,mono,fixed:6"  # the fixed reference ladder
 
     def __post_init__(self) -> None:
         values.check_fields(self, "league.", {}, _LEAGUE_BOUNDS)
