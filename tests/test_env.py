@@ -1,5 +1,5 @@
-"""RallySim/SimpleReturn-v0: API, rewards, determinism, bad input (docs/reference.md §6, issue
-#2)."""
+"""RallySim/SimpleReturn-v0: API, rewards, determinism, bad input (docs/reference.md §6,
+issue #2)."""
 
 import gymnasium as gym
 import numpy as np

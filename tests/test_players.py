@@ -84,6 +84,8 @@ def test_rendering_reads_the_rig_from_the_spec(monkeypatch):
     from rallysim.render.players import HumanLikeRig, SimpleRig, default_camera, rig_class
 
     assert rig_class("simple") is SimpleRig and rig_class("humanlike") is HumanLikeRig
+    for kind in players.PLAYERS:  # every shipped kind names a rig that loads
+        assert rig_class(kind).bodies_type is type(get_player(kind).make_bodies(1, 1))
     robot = dataclasses.replace(SIMPLE, name="robot", rig="rallysim.render.players:HumanLikeRig",
                                 camera="back")
     monkeypatch.setitem(players.PLAYERS, "robot", robot)

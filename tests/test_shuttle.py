@@ -15,8 +15,8 @@ from tests.conftest import run_until_landed
 
 
 def independent_paper_landing(p, v, dt=0.02):
-    """docs/reference.md §4.1 written out by hand: v <- (v + g dt) * 0.97; p <- p + v dt; land at z
-    = 0."""
+    """docs/reference.md §4.1 written out by hand: v <- (v + g dt) * 0.97; p <- p + v dt;
+    land at z = 0."""
     p, v = np.array(p, float), np.array(v, float)
     while True:
         v = (v + np.array([0.0, 0.0, -9.81]) * dt) * 0.97

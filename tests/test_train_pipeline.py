@@ -193,7 +193,7 @@ def test_humanlike_high_level_trains_over_the_scripted_low_level(tmp_path):
     policy = load_policy(tmp_path / "policy")
     assert policy(np.zeros((2, 86), np.float32)).shape == (2, 3)
     doc = json.loads((tmp_path / "policy.json").read_text())
-    assert doc["env_id"] == "rallysim.envs.humanlike_rally_turn_v0:HumanLikeRallyTurnVectorEnv"
+    assert doc["env_id"] == "RallySim/HumanLikeRallyTurn-v0"
 
 
 def test_a_run_written_before_the_sections_and_player_rename_resumes(tmp_path):

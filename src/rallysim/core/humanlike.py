@@ -21,8 +21,7 @@ arm's twist drives a tiny inertia, so a clamped stiff PD chatters and a decouple
 One ``mj_step`` advances the whole batch; joint limits are hard stops applied after it
 (constraints are off, like the SIMPLE arm's). Own frames (docs/reference.md §1): every player
 stands at x < 0 facing +x; player 1's copies are attached turned 180 degrees about z, so one joint
-angle
-means one pose for either player.
+angle means one pose for either player.
 """
 
 from __future__ import annotations
@@ -448,8 +447,8 @@ class HumanLikeBodies(MjDataViews):
 
     @staticmethod
     def shot_velocity(racket: np.ndarray) -> np.ndarray:
-        """docs/reference.md §10: the shuttle leaves along the racket velocity at min(60, 5 |v|)
-        m/s."""
+        """The shuttle leaves along the racket velocity at min(60, 5 |v|) m/s
+        (docs/reference.md §10)."""
         speed = np.linalg.norm(racket, axis=-1, keepdims=True)
         scale = np.divide(np.minimum(60.0, 5.0 * speed), speed, out=np.zeros_like(speed),
                           where=speed > 0.0)

@@ -1,10 +1,9 @@
 """Serve strategies: how each rally's shuttle is put in flight.
 
 A ``Game`` holds one (the machine serve of docs/reference.md §4.3 unless told otherwise) and asks
-it once per
-``Game.reset``; nothing overwrites the shuttle afterwards. A strategy draws its uniforms from
-each served game's own random stream, so the order of draws within a stream is part of its
-behaviour: every strategy here keeps the order of v0's seeded episodes.
+it once per ``Game.reset``; nothing overwrites the shuttle afterwards. A strategy draws its
+uniforms from each served game's own random stream, so the order of draws within a stream is
+part of its behaviour: every strategy here keeps the order of v0's seeded episodes.
 """
 
 from __future__ import annotations

@@ -94,8 +94,8 @@ class ShuttleModel:
 
 
 class PaperShuttle(ShuttleModel):
-    """The original builds' flight (docs/reference.md §4.1), per step: v <- (v + g dt)(1 - c dt); p
-    += v dt."""
+    """The original builds' flight (docs/reference.md §4.1), per step:
+    v <- (v + g dt)(1 - c dt); p <- p + v dt."""
 
     name = "paper"
     linear_damping = 1.5  # 1/s: Unity's drag, giving the factor 0.97 per 0.02 s step

@@ -1,1 +1,2 @@
-"""Thin API views over the batched game: Gymnasium (single and vector) and, later, PettingZoo."""
+"""Thin API views over the batched game: Gymnasium (single and vector) and PettingZoo, one module
+per game."""

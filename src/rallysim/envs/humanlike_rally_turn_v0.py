@@ -14,8 +14,7 @@ Observations: ``humanlike_rally_v0``'s 86 values in the turn player's own frame.
 ``metadata["is_parallelizable"]`` (False) are as ``simple_rally_turn_v0``'s.
 
 ## The high level's 3-D goal
-The player whose turn has just begun picks a goal, ``Box(-1, 1,
-(3,))``, mapped onto the low level's target racket velocity: speed 1.5 + 1.5 (g0 + 1) m/s
+The player whose turn has just begun picks a goal, ``Box(-1, 1, (3,))``, mapped onto the low level's target racket velocity: speed 1.5 + 1.5 (g0 + 1) m/s
 (1.5-4.5), elevation 40 + 5 (g1 + 1) degrees (40-50), azimuth 30 g2 degrees (-30-30, toward +y
 for positive g2), own frame. The goal is held until the player's next turn; both players' low
 levels act every decision; one step covers the span to the next turn (``infos[agent]
@@ -24,7 +23,7 @@ levels act every decision; one step covers the span to the next turn (``infos[ag
 callable ``(observations (M, 86), goals (M, 3)) -> actions (M, 15)``.
 
 ## Version history
-- v0: first release (until 0.x inside ``humanlike_rally_v0`` as ``turn_env``, where that name
+- v0: first release (earlier inside ``humanlike_rally_v0`` as ``turn_env``, where that name
   still works with a ``DeprecationWarning``).
 """
 

@@ -37,7 +37,7 @@ As ``simple_rally_v0``'s: ``max_cycles`` (default None: no limit) truncates ever
 reset ``options`` are accepted and ignored silently (a non-dict raises ``ValueError``).
 
 ## Version history
-- v0: first release. Until 0.x the turn game's views (``turn_env``, ``HumanLikeRallyTurnEnv``,
+- v0: first release. Earlier, the turn game's views (``turn_env``, ``HumanLikeRallyTurnEnv``,
   ``HumanLikeRallyTurnVectorEnv``, ``HumanLikeRallyTurnAECEnv``) lived here; they are now
   ``humanlike_rally_turn_v0``'s, and the old names still work with a ``DeprecationWarning``.
 """

@@ -14,7 +14,6 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 
-from rallysim.core.simple_obs import TARGET_DEPTH_RANGE
 from rallysim.core.tasks.rally import RallyConfig, RallyTask
 from rallysim.core.validation import positive_int
 from rallysim.envs.rendering import EnvView
@@ -34,9 +33,9 @@ def act_space(spec: PlayerSpec) -> spaces.Box:
 
 
 def goal_space(spec: PlayerSpec) -> spaces.Box:
-    if spec.goal.size == 1:
-        return spaces.Box(*TARGET_DEPTH_RANGE, (1,), np.float32)
-    return spaces.Box(-1.0, 1.0, (spec.goal.size,), np.float32)
+    """The turn game's action: one goal of the spec's range."""
+    return spaces.Box(np.array(spec.goal.low, np.float32), np.array(spec.goal.high, np.float32),
+                      (spec.goal.size,), np.float32)
 
 
 def rally_config(view: object, config: dict[str, Any]) -> RallyConfig:

@@ -36,8 +36,8 @@ HUMANLIKE_RALLY_TURN_ID = "RallySim/HumanLikeRallyTurn-v0"
 _ENVS = "rallysim.envs."
 # id -> (entry point, vector entry point, extra register() arguments)
 _SPECS: dict[str, tuple[str, str, dict]] = {
-    # the return tasks truncate at 1000 decisions themselves (docs/reference.md §2): no TimeLimit
-    # wrapper
+    # the return tasks truncate at 1000 decisions themselves (docs/reference.md §2): no
+    # TimeLimit wrapper
     HUMANLIKE_RETURN_ID: (_ENVS + "humanlike_return_v0:HumanLikeReturnEnv",
                           _ENVS + "humanlike_return_v0:HumanLikeReturnVectorEnv",
                           {"max_episode_steps": None}),

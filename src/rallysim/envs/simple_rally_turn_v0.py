@@ -42,7 +42,7 @@ acted).
   ``ValueError``.
 
 ## Version history
-- v0: first release (until 0.x inside ``simple_rally_v0`` as ``turn_env``, where that name
+- v0: first release (earlier inside ``simple_rally_v0`` as ``turn_env``, where that name
   still works with a ``DeprecationWarning``).
 """
 
@@ -182,7 +182,7 @@ class SimpleRallyTurnVectorEnv(NativeVectorEnv):
                  render_mode: str | None = None, **config: Any) -> None:
         cfg = rally_config(self, config)
         if cfg.mode != "cooperative":
-            raise ValueError("the single-agent turn view is cooperative; use turn_env() for "
+            raise ValueError("the single-agent turn view is cooperative; use this module's env() or raw_env() for "
                              "the competitive game")
         self._setup(num_envs, autoreset_mode)
         self.render_mode = render_mode

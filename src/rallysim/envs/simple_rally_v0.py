@@ -58,7 +58,7 @@ hitter if it lands out. Arguments: ``shuttle``, ``mode``, ``max_hits``, ``hit_re
 ``point_winner`` (-1 if none), ``score`` (own score first).
 
 ## Version history
-- v0: first release. Until 0.x the turn game's views (``turn_env``, ``SimpleRallyTurnEnv``,
+- v0: first release. Earlier, the turn game's views (``turn_env``, ``SimpleRallyTurnEnv``,
   ``SimpleRallyTurnVectorEnv``, ``SimpleRallyTurnAECEnv``) lived here; they are now
   ``simple_rally_turn_v0``'s, and the old names still work with a ``DeprecationWarning``.
 """

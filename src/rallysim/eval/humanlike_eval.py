@@ -4,8 +4,7 @@ the 3-D rally they play.
 Each environment plays one episode, seeded ``seed + i``; the racket velocity at the hit is
 compared with the episode's target (docs/reference.md §10): hit rate, angle error in degrees,
 relative speed error. Targets of issue 5: hit rate >= 90 %, mean angle error <= 5 degrees, speed
-error <= 10 %,
-and a mean rally of at least 10 hits.
+error <= 10 %, and a mean rally of at least 10 hits.
 """
 
 from __future__ import annotations

@@ -109,7 +109,7 @@ class PlayerSpec:
     low_observations: Callable[[np.ndarray, np.ndarray], np.ndarray]  # rally obs, goals -> low
     scripted_low: Callable[[], Callable]  # () -> the rally's scripted low level (obs, goals)
     scripted_task_low: Callable[[], Callable]  # () -> the low-level task's scripted policy
-    camera: str  # the render rig's default camera
+    camera: str  # the default render camera (a rallysim.render.model.CAMERAS name)
     low_env_id: str  # the Gymnasium id of the low-level task
     # The render rig (rallysim.render.players.PlayerRig) as "module:Class": what draws this kind,
     # its goals and targets, and its keyboard player. Only rallysim.render imports it.

@@ -29,7 +29,7 @@ speed 1.5-4.5 m/s, elevation 40-50 degrees, azimuth -30-30 degrees), changed in 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import ClassVar
+from typing import ClassVar, Protocol
 
 import numpy as np
 
@@ -102,7 +102,14 @@ class KeyboardGoals:
         return self.value.copy()
 
 
-Keyboard = KeyboardPlayer | KeyboardGoals
+class Keyboard(Protocol):
+    """What ``rallysim play`` asks of a player kind's keyboard player (its rig's ``keyboard``):
+    key presses, then each decision ``goal()`` if it ``steers_goals`` (the keys set the goal the
+    low level swings for), else ``action()`` (the keys replace the low level's action)."""
+
+    steers_goals: ClassVar[bool]
+
+    def press(self, key: int) -> None: ...
 
 
 class KeyboardAgent:

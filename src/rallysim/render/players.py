@@ -9,8 +9,9 @@ kind of player; a *rig* does the rest for one kind:
   the target is a racket velocity, a red arrow from the racket head along it,
   ``ARROW_SECONDS`` × the velocity long, added to each frame's scene as a decor geom.
 
-Each player kind's spec names its rig (``PlayerSpec.rig``), and so does its goal markers and
-keyboard player: rendering and play read them from the rig, not from the kind's name.
+Each player kind's spec names its rig (``PlayerSpec.rig``); the rig supplies the kind's goal and
+target markers, floor discs, player 1's colour and keyboard player, so rendering and play switch
+on no kind's name.
 """
 
 from __future__ import annotations
@@ -44,7 +45,6 @@ _EYE3 = np.eye(3).ravel()
 class PlayerRig:
     """What ``SceneRenderer`` needs to draw one kind of player: see the module docstring."""
 
-    kind: ClassVar[str]
     bodies_type: ClassVar[type]
     target_keyword: ClassVar[str]  # the ``render`` argument that carries this kind's target
     floor_markers: ClassVar[bool] = False  # the rendering model holds a target disc per player
@@ -81,7 +81,8 @@ class PlayerRig:
     def check(self, game: Game) -> None:
         """A clear error for a game of another kind of player (whose state would not fit)."""
         if not isinstance(game.bodies, self.bodies_type):
-            raise TypeError(f"this renderer draws {self.kind} players, the game's bodies are "
+            raise TypeError(f"this renderer draws {self.bodies_type.__name__} players, the "
+                            f"game's bodies are "
                             f"{type(game.bodies).__name__}: use SceneRenderer(..., "
                             f"player={_kind_of(game.bodies)!r})")
 
@@ -101,7 +102,6 @@ class PlayerRig:
 
 
 class SimpleRig(PlayerRig):
-    kind = "simple"
     bodies_type = SimpleBodies
     target_keyword = "target_depth"
     floor_markers = True
@@ -141,7 +141,6 @@ class SimpleRig(PlayerRig):
 
 
 class HumanLikeRig(PlayerRig):
-    kind = "humanlike"
     bodies_type = HumanLikeBodies
     target_keyword = "target_velocity"
     player1_material = "shirt"

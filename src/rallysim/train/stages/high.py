@@ -84,7 +84,7 @@ PLAYERS: dict[str, HighPlayer] = {
     "simple": HighPlayer(_simple_env, _simple_lengths, SIMPLE.goal.mapping,
                          "RallySim/SimpleRallyTurn-v0"),
     "humanlike": HighPlayer(_humanlike_env, _humanlike_lengths, HUMANLIKE.goal.mapping,
-                            "rallysim.envs.humanlike_rally_turn_v0:HumanLikeRallyTurnVectorEnv"),
+                            "RallySim/HumanLikeRallyTurn-v0"),
 }
 
 
