@@ -53,6 +53,28 @@ def test_training_without_a_terminal_prints_progress_lines(tmp_path, monkeypatch
     assert all(" decisions, " in b for b in beats)  # counted in the stage's budget unit
 
 
+def test_the_warm_start_counts_its_epochs_then_ppo_its_decisions(tmp_path, monkeypatch):
+    pytest.importorskip("stable_baselines3")
+    from rallysim.train.config import load_config
+    from rallysim.train.runner import train_stage
+
+    monkeypatch.setattr(progress, "HEARTBEAT_S", 0.05)
+    config = load_config("low", None, {"seed": 5, "warm_start.teacher": "scripted",
+                                       "warm_start.decisions": 8192, "warm_start.epochs": 8,
+                                       "warm_start.batch_size": 256, "ppo.n_envs": 32,
+                                       "ppo.n_steps": 16, "ppo.batch_size": 256,
+                                       "budget": 4096, "eval.every": 0, "eval.episodes": 16,
+                                       "checkpoint_every": 10**6})
+    lines: list[str] = []
+    train_stage(config, tmp_path, progress=False, say=lines.append)
+    warm = [line for line in lines if line.startswith("[low seed 5] warm start ")]
+    fitted = [int(w.split(": ")[1].split("/")[0]) for w in warm]
+    assert all("/8 epochs, " in w for w in warm) and fitted == sorted(fitted), warm
+    assert fitted[-1] >= 4  # the count moves while the clone is fitted
+    ppo = [line for line in lines if line.startswith("[low seed 5] PPO: ")]
+    assert all("/4,096 decisions, " in line for line in ppo)
+
+
 @pytest.mark.parametrize("tty", [False, True])
 def test_progress_lines_only_without_a_terminal(tmp_path, monkeypatch, capsys, tty):
     """``train`` (progress on): a bar on a terminal; heartbeat lines on stderr otherwise."""

@@ -475,8 +475,8 @@ def _require_ray_extra() -> None:
 
 
 def _train(args: argparse.Namespace) -> int:
-    """Train one stage (low, high, mono, compete) with Stable-Baselines3 PPO (resumable) or, with
-    ``--backend rllib``, with RLlib PPO on a Ray cluster."""
+    """Train one stage (low, high, mono, compete, compete_mono) with Stable-Baselines3 PPO
+    (resumable) or, with ``--backend rllib``, with RLlib PPO on a Ray cluster."""
     import warnings
 
     rllib = args.backend == "rllib"
@@ -810,15 +810,16 @@ def build_parser() -> argparse.ArgumentParser:
                            formatter_class=argparse.RawDescriptionHelpFormatter)
     train.add_argument("stage", choices=stages,
                        help="low, high, mono: the paper's stages; compete: the competitive high "
-                            "level by self-play (docs/competitive.md)")
+                            "level by self-play; compete_mono: the flat competitive baseline "
+                            "(docs/competitive.md)")
     train.add_argument("--config", type=_in_file,
                        help="a YAML file of settings over the stage's defaults")
     train.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",
                        help="settings over the config, e.g. ppo.n_envs=128 "
                             "ppo.net_arch=[64,64] eval.episodes=200 (all listed below)")
     train.add_argument("--budget", type=int,
-                       help="budget in the stage's unit: decisions (low), turns (high, "
-                            "compete), player-decisions (mono)")
+                       help="budget in the stage's unit: decisions (low, compete_mono), "
+                            "turns (high, compete), player-decisions (mono)")
     train.add_argument("--decisions", type=int, dest="budget", action=_DeprecatedName,
                        new="--budget", help="deprecated name of --budget")
     train.add_argument("--seed", type=_seed)
@@ -848,12 +849,15 @@ def build_parser() -> argparse.ArgumentParser:
     repro = sub.add_parser("reproduce", help="the whole pipeline and the paper's Table VII")
     repro.add_argument("--budget", choices=("default", "quick", "scratch", "rl", "smoke"),
                        default="default",
-                       help="default: ~15 min on 2 cores; quick: a look in ~5 min; scratch: "
+                       help="default: 3 seeds (its time on 2 cores: docs/results.md); "
+                            "quick: a look in ~5 min; scratch: "
                             "the default with the low level trained from scratch; rl: no "
                             "teacher anywhere, the low level from scratch on "
                             "SimpleReturn-v1")
     repro.add_argument("--out", type=_out_dir, default="results")
-    repro.add_argument("--workers", type=_positive, default=3, help="seeds trained at once")
+    repro.add_argument("--workers", type=_positive,
+                       help="processes training and evaluating at once (default: one per CPU "
+                            "core)")
     repro.add_argument("--seeds", type=_positive,
                        help="training seeds (default: the budget's, 3; the seed-spread study "
                             "uses 5)")

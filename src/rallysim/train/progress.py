@@ -53,9 +53,14 @@ class Heartbeat:
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
 
-    def set_phase(self, phase: str, restart_rate: bool = True) -> None:
+    def set_phase(self, phase: str, restart_rate: bool = True,
+                  count: tuple[int, int, str] | None = None) -> None:
         """Name what is running; ``restart_rate``: measure the rate from now (a new kind of
-        work), else keep the running rate (more of the same work, e.g. the next seed)."""
+        work), else keep the running rate (more of the same work, e.g. the next seed);
+        ``count``: (done, total, unit) when the new phase counts other units (a warm start's
+        epochs before PPO's decisions)."""
+        if count is not None:  # (before the name: the heartbeat's thread reads both)
+            self.done, self.total, self.unit = int(count[0]), int(count[1]), count[2]
         self.phase = phase
         if restart_rate:
             self._phase_start = time.perf_counter()

@@ -4,15 +4,19 @@ For each training seed: the low level (PPO on ``RallySim/SimpleReturn-v0``), the
 (PPO on the turn-based rally with that low level frozen), then the Monolithic baseline (PPO on
 the rally at the physics rate, given the same budget as the two stages together, counted in
 player-decisions: the low stage's steps plus two per rally decision simulated in the high
-stage). Two seeds train at once (one per core). Then every method plays ``rallies`` evaluation
-rallies per seed: HRL (trained high + low), Random High-level (trained low, goals ~ U[2, 6] m),
-Monolithic. The report gives mean, median and IQM rally lengths with 95 % hierarchical bootstrap
-intervals, the capped counts and survival curves, beside the paper's numbers.
+stage). Then every method plays ``rallies`` evaluation rallies per seed: HRL (trained high +
+low), Random High-level (trained low, goals ~ U[2, 6] m), Monolithic. The report gives mean,
+median and IQM rally lengths with 95 % hierarchical bootstrap intervals, the capped counts and
+survival curves, beside the paper's numbers.
 
 Rallies end at ``cap`` hits (default 50, the paper's; up to 100,000): only a landing or the
 cap ends a rally. Beside the mean, the report says where rallies are lost: the serve-return rate,
 the first return's miss rate, the early-loss rate (lost before the second hit) and the per-hit
 miss rate after that, pooled and per seed, with the worst seed named.
+
+The stages and evaluations run in a pool of processes, one per CPU core by default: each
+process takes one step of one seed at a time, so seeds overlap and no core idles while another
+seed's chain of steps is still long.
 
 Everything lands in ``out`` (``runs/`` per stage and seed, ``results.json``, ``report.md``,
 ``learning_curves.png``, ``survival.png``; at another cap ``results_cap{N}.json`` and so on);
@@ -61,7 +65,7 @@ class Budget:
 
     def overrides(self, stage: str) -> dict[str, Any]:
         """The stage's settings from this budget (the mono stage's follow from the others':
-        ``train_seed``)."""
+        ``LINKS``)."""
         per_stage = {
             "low": {"budget": self.low_decisions, "warm_start.teacher": self.warm_start,
                     "eval.every": max(self.low_decisions // 8, 1), "goals": self.goals},
@@ -123,35 +127,32 @@ def _hierarchy_budget(seed: int, out: Path, curves: dict[str, Any]) -> dict[str,
 LINKS = {"high": _frozen_low_level, "mono": _hierarchy_budget}
 
 
-def train_seed(seed: int, budget: Budget, out: Path, queue: Any = None) -> dict[str, Any]:
-    """Train the three stages of one seed (each resumes or is skipped when already done)."""
+def train_seed_stage(seed: int, stage: str, budget: Budget, out: Path,
+                     curves: dict[str, Any], queue: Any = None) -> dict[str, Any]:
+    """Train one stage of one seed, given the curves of that seed's earlier stages (``LINKS``),
+    and return its curve; a stage already trained is read back, not trained again."""
     from rallysim.train.config import load_config
     from rallysim.train.run_log import finished
     from rallysim.train.runner import train_stage
     from rallysim.train.stages import headline
 
-    curves: dict[str, Any] = {}
-    smoke = budget.name == "smoke"
-    for stage in METHOD_STAGES:
-        run = out / "runs" / f"{stage}_seed{seed}"
-        overrides = {"seed": seed, **budget.overrides(stage)}
-        if smoke:
-            overrides.update({**SMOKE_SIZES, **SMOKE_STAGE_SIZES.get(stage, {})})
-        if stage in LINKS:
-            overrides.update(LINKS[stage](seed, out, curves))
-        config = load_config(stage, None, overrides)
-        done = finished(run, config.budget)
-        if done is not None:
-            curves[stage] = done
-            _say(queue, f"[seed {seed}] {stage}: already trained, skipped")
-            continue
-        t = time.perf_counter()
-        _say(queue, f"[seed {seed}] {stage}: training {config.budget:,} {config.budget_unit} ...")
-        curves[stage] = train_stage(config, run, progress=False,
-                                    say=lambda text: _say(queue, text))
-        _say(queue, f"[seed {seed}] {stage}: done in {time.perf_counter() - t:.0f} s, "
-                    + headline(config, curves[stage]["final"]))
-    return curves
+    run = out / "runs" / f"{stage}_seed{seed}"
+    overrides = {"seed": seed, **budget.overrides(stage)}
+    if budget.name == "smoke":
+        overrides.update({**SMOKE_SIZES, **SMOKE_STAGE_SIZES.get(stage, {})})
+    if stage in LINKS:
+        overrides.update(LINKS[stage](seed, out, curves))
+    config = load_config(stage, None, overrides)
+    done = finished(run, config.budget)
+    if done is not None:
+        _say(queue, f"[seed {seed}] {stage}: already trained, skipped")
+        return done
+    t = time.perf_counter()
+    _say(queue, f"[seed {seed}] {stage}: training {config.budget:,} {config.budget_unit} ...")
+    curve = train_stage(config, run, progress=False, say=lambda text: _say(queue, text))
+    _say(queue, f"[seed {seed}] {stage}: done in {time.perf_counter() - t:.0f} s, "
+                + headline(config, curve["final"]))
+    return curve
 
 
 def evaluate_seed(seed: int, out: Path, rallies: int, low_episodes: int,
@@ -183,10 +184,11 @@ def evaluate_seed(seed: int, out: Path, rallies: int, low_episodes: int,
             "low_level": {**low_eval.as_dict(), **follows}}
 
 
-def run_reproduce(budget: Budget, out: Path, workers: int = 3, seeds: int | None = None,
-                  cap: int = PAPER_CAP) -> dict[str, Any]:
-    """Train every seed (``workers`` at a time; ``seeds`` overrides the budget's count),
-    evaluate with rallies capped at ``cap`` hits, and write the report."""
+def run_reproduce(budget: Budget, out: Path, workers: int | None = None,
+                  seeds: int | None = None, cap: int = PAPER_CAP) -> dict[str, Any]:
+    """Train every seed and evaluate it with rallies capped at ``cap`` hits (``workers``
+    processes at a time, by default one per CPU core; ``seeds`` overrides the budget's count),
+    then write the report."""
     from rallysim.eval.rally_eval import rules_for_cap
 
     rules_for_cap(cap)  # refuse a bad cap before any training
@@ -194,6 +196,7 @@ def run_reproduce(budget: Budget, out: Path, workers: int = 3, seeds: int | None
         if seeds < 1:
             raise ValueError(f"seeds must be >= 1, got {seeds}")
         budget = replace(budget, seeds=int(seeds))
+    workers = default_workers() if workers is None else workers
     if workers < 1:
         raise ValueError(f"workers must be >= 1, got {workers}")
     out.mkdir(parents=True, exist_ok=True)
@@ -201,17 +204,9 @@ def run_reproduce(budget: Budget, out: Path, workers: int = 3, seeds: int | None
     start = time.perf_counter()
     say_stderr(f"reproduce ({budget.name}): {budget.seeds} seeds x (low "
                f"{budget.low_decisions:,} decisions, high {budget.high_turns:,} turns, mono the "
-               f"same budget); rallies capped at {cap} hits; results in {out}")
-    curves = _train_all(budget, out, workers)
-    train_wall = time.perf_counter() - start
-    evaluations = 3 * budget.seeds
-    with Heartbeat("[evaluate]", evaluations, unit="rally sets") as beat:
-        per_seed = {}
-        for s in range(budget.seeds):
-            per_seed[s] = evaluate_seed(s, out, budget.rallies, budget.low_eval_episodes, cap,
-                                        beat)
-            hrl = np.mean(per_seed[s]["lengths"]["HRL"])
-            say_stderr(f"[evaluate] seed {s}: HRL mean rally {hrl:.2f} (cap {cap})")
+               f"same budget, then the evaluation); rallies capped at {cap} hits; "
+               f"{min(workers, budget.seeds)} worker(s); results in {out}")
+    curves, per_seed, train_wall = _run_all(budget, out, workers, cap)
     results = summarise(budget, curves, per_seed, train_wall, time.perf_counter() - start, cap)
     (out / names["json"]).write_text(json.dumps(results, indent=1))
     (out / names["report"]).write_text(markdown_report(results))
@@ -221,27 +216,95 @@ def run_reproduce(budget: Budget, out: Path, workers: int = 3, seeds: int | None
     return results
 
 
-def _train_all(budget: Budget, out: Path, workers: int) -> dict[int, dict[str, Any]]:
-    if workers <= 1:
-        return {s: train_seed(s, budget, out) for s in range(budget.seeds)}
+def default_workers() -> int:
+    """One worker per CPU core this process may use."""
+    import os
+
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (
+        os.cpu_count() or 1)
+
+
+# what one seed does, each step after the one before: its three stages, then its evaluation
+SEED_STEPS = (*METHOD_STAGES, "evaluate")
+
+
+def run_seed_step(seed: int, step: str, budget: Budget, out: Path, curves: dict[str, Any],
+                  cap: int, queue: Any = None) -> dict[str, Any]:
+    """One step of one seed (``SEED_STEPS``): a stage's curve, or the seed's evaluation."""
+    if step != "evaluate":
+        return train_seed_stage(seed, step, budget, out, curves, queue)
+    with Heartbeat(f"[evaluate seed {seed}]", len(METHODS), lambda t: _say(queue, t),
+                   unit="rally sets") as beat:
+        result = evaluate_seed(seed, out, budget.rallies, budget.low_eval_episodes, cap, beat)
+    hrl = np.mean(result["lengths"]["HRL"])
+    _say(queue, f"[seed {seed}] evaluated: HRL mean rally {hrl:.2f} (cap {cap})")
+    return result
+
+
+def next_seed(ready: set[int], steps_done: dict[int, int]) -> int:
+    """Of the seeds whose next step may start, the one with most steps left (the lowest seed
+    among equals)."""
+    return min(ready, key=lambda s: (steps_done[s], s))
+
+
+def _run_all(budget: Budget, out: Path, workers: int, cap: int
+             ) -> tuple[dict[int, dict[str, Any]], dict[int, Any], float]:
+    """Every seed's steps: the curves per seed and stage, the evaluations per seed, and the
+    wall time until the last stage was trained.
+
+    With one worker the steps run in this process: every seed's stages, then the
+    evaluations. With more, a pool of
+    fresh processes takes single steps: a seed's next step is submitted as soon as its last
+    one is done, and a free worker takes the step of the seed with most steps left (every
+    seed's chain of steps is the same length, so starting the longest chains first keeps
+    both cores busy to the end; three seeds on two cores no longer leave the third seed's
+    whole chain to run alone). Each step is deterministic on its own, so the results do not
+    depend on which process ran it or when."""
+    seeds = range(budget.seeds)
+    curves: dict[int, dict[str, Any]] = {s: {} for s in seeds}
+    evaluations: dict[int, Any] = {}
+    steps_done = dict.fromkeys(seeds, 0)
+    t0 = time.perf_counter()
+    train_wall = 0.0
+
+    def record(seed: int, result: dict[str, Any]) -> None:
+        nonlocal train_wall
+        step = SEED_STEPS[steps_done[seed]]
+        if step == "evaluate":
+            evaluations[seed] = result
+        else:
+            curves[seed][step] = result
+            train_wall = time.perf_counter() - t0
+        steps_done[seed] += 1
+
+    if workers == 1:  # every seed's stages, then every seed's evaluation
+        for step in (METHOD_STAGES, ("evaluate",)):
+            for s in seeds:
+                for one in step:
+                    record(s, run_seed_step(s, one, budget, out, curves[s], cap))
+        return curves, evaluations, train_wall
     ctx = mp.get_context("spawn")  # fresh interpreters: torch and fork do not mix
     manager = ctx.Manager()
     queue = manager.Queue()
-    curves: dict[int, dict[str, Any]] = {}
+    ready, running = set(seeds), {}
     with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
-        futures = {pool.submit(train_seed, s, budget, out, queue): s
-                   for s in range(budget.seeds)}
-        t0 = time.perf_counter()
-        pending = set(futures)
-        while pending:
-            finished, pending = wait(pending, timeout=0.5, return_when=FIRST_COMPLETED)
+        while ready or running:
+            while ready and len(running) < workers:
+                s = next_seed(ready, steps_done)
+                ready.remove(s)
+                running[pool.submit(run_seed_step, s, SEED_STEPS[steps_done[s]], budget, out,
+                                    curves[s], cap, queue)] = s
+            finished, _ = wait(running, timeout=0.5, return_when=FIRST_COMPLETED)
             while not queue.empty():
                 print(f"{time.perf_counter() - t0:7.0f} s  {queue.get()}", file=sys.stderr,
                       flush=True)
             for f in finished:
-                curves[futures[f]] = f.result()
+                s = running.pop(f)
+                record(s, f.result())
+                if steps_done[s] < len(SEED_STEPS):
+                    ready.add(s)
     manager.shutdown()
-    return curves
+    return curves, evaluations, train_wall
 
 
 LOSS_KEYS = ("serve_return", "first_return_miss", "early_loss", "later_miss_rate")

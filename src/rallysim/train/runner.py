@@ -30,6 +30,7 @@ from __future__ import annotations
 import math
 import shutil
 import sys
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -40,6 +41,7 @@ from rallysim.train import stages
 from rallysim.train.config import TrainConfig
 from rallysim.train.progress import Heartbeat, Say, progress_lines, say_stderr
 from rallysim.train.run_log import RunLog
+from rallysim.train.torch_speed import no_distribution_checks
 
 
 class _Monitor:
@@ -66,8 +68,8 @@ class _Monitor:
 
     def open_bar(self, done: int) -> None:
         if self.beat is not None:
-            self.beat.update(done)
-            self.beat.set_phase("PPO")
+            config = self.log.config
+            self.beat.set_phase("PPO", count=(done, config.budget, config.budget_unit))
             self.log.say = self.beat.say
         elif self.progress:
             from tqdm import tqdm
@@ -137,10 +139,11 @@ def train_stage(config: TrainConfig, out_dir: str | Path, resume: bool = True,
         say = progress_lines()  # None on a terminal: the bar
     beat = None if say is None else Heartbeat(f"[{config.stage} seed {config.seed}]",
                                              config.budget, say, unit=config.budget_unit)
-    if beat is None:
-        return _train_stage(config, Path(out_dir), resume, progress, None)
-    with beat:
-        return _train_stage(config, Path(out_dir), resume, progress, beat)
+    with no_distribution_checks():
+        if beat is None:
+            return _train_stage(config, Path(out_dir), resume, progress, None)
+        with beat:
+            return _train_stage(config, Path(out_dir), resume, progress, beat)
 
 
 def warm_start_dir(out: Path) -> Path:
@@ -167,10 +170,15 @@ def _train_stage(config: TrainConfig, out: Path, resume: bool, progress: bool,
         if note is not None:
             note(log.resume_note(latest, int(model.num_timesteps)))
     elif config.warm_start.enabled:
+        fitted: Callable[[int], None] | None = None
         if beat is not None:
-            beat.set_phase("warm start (behaviour cloning)")
+            from rallysim.train.warm_start import total_fit_epochs
+
+            beat.set_phase("warm start (behaviour cloning)", count=(
+                0, total_fit_epochs(config.warm_start), "epochs"))
+            fitted = beat.update
         log.curve["warm_start"] = warm_start(model, config, progress and beat is None, out,
-                                             warn, note)
+                                             warn, note, fitted)
     log.write_config()
     extra = stages.of(config).begin(config, model, out,
                                     None if found is None else found[1].get("stage_state"))
@@ -198,11 +206,13 @@ def _train_stage(config: TrainConfig, out: Path, resume: bool, progress: bool,
 
 
 def warm_start(model: Any, config: TrainConfig, progress: bool, out: Path | None = None,
-               warn: Say | None = None, note: Say | None = None) -> dict[str, Any]:
+               warn: Say | None = None, note: Say | None = None,
+               fitted: Callable[[int], None] | None = None) -> dict[str, Any]:
     """Behaviour-clone the player's scripted controller into ``model`` (labelled in every
     output): ``ScriptedController`` for SIMPLE, ``AimedSwing`` for HUMAN-LIKE. With ``out``,
     resumable: its state is saved in (and resumed from) ``warm_start_dir(out)``; ``warn``:
-    where a skipped damaged state is reported, ``note``: where resuming is."""
+    where a skipped damaged state is reported, ``note``: where resuming is; ``fitted(done)``:
+    after every epoch fitted (``rallysim.train.warm_start.behaviour_clone``)."""
     from rallysim.train.warm_start import WarmCheckpoint, behaviour_clone
 
     stage = stages.of(config)
@@ -228,7 +238,7 @@ def warm_start(model: Any, config: TrainConfig, progress: bool, out: Path | None
                                            "eval_seed": config.eval.seed})
     result = behaviour_clone(model, teacher, settings, stage.clone_task(config),
                              evaluate=evaluate if settings.dagger else None,
-                             checkpoint=checkpoint)
+                             checkpoint=checkpoint, fitted=fitted)
     return {**result, "teacher": name}
 
 

@@ -53,6 +53,8 @@ class PPOSettings:
         """Stable-Baselines3 ``PPO``'s keyword arguments for these settings."""
         import torch
 
+        from rallysim.train.torch_speed import SB3_ADAM_KWARGS
+
         activation = {"tanh": torch.nn.Tanh, "relu": torch.nn.ReLU}[self.activation]
         lr0 = self.learning_rate
         learning_rate: Any = (lambda remaining: lr0 * remaining) if self.anneal_lr else lr0
@@ -63,7 +65,8 @@ class PPOSettings:
             "ent_coef": self.ent_coef, "vf_coef": self.vf_coef,
             "max_grad_norm": self.max_grad_norm,
             "policy_kwargs": {"net_arch": {"pi": list(self.net_arch), "vf": list(self.net_arch)},
-                              "activation_fn": activation, "log_std_init": self.log_std_init},
+                              "activation_fn": activation, "log_std_init": self.log_std_init,
+                              "optimizer_kwargs": dict(SB3_ADAM_KWARGS)},
         }
 
 

@@ -37,6 +37,7 @@ from stable_baselines3 import PPO
 from rallysim.policies.types import Policy
 from rallysim.train import checkpoint as ckpt
 from rallysim.train.sections import WarmStartSettings
+from rallysim.train.torch_speed import ADAM_KWARGS
 
 Evaluate = Callable[[Policy, int], dict[str, Any]]
 Say = Callable[[str], None]
@@ -282,7 +283,8 @@ def _check_state(doc: dict[str, Any], path: Path) -> None:
 
 def behaviour_clone(model: PPO, teacher: Policy, settings: WarmStartSettings, task: CloneTask,
                     evaluate: Evaluate | None = None,
-                    checkpoint: WarmCheckpoint | None = None) -> dict[str, Any]:
+                    checkpoint: WarmCheckpoint | None = None,
+                    fitted: Callable[[int], None] | None = None) -> dict[str, Any]:
     """Fit ``model``'s actor mean and critic to ``teacher`` playing ``task`` as ``settings``
     say (``rallysim.train.sections.WarmStartSettings``: decisions, epochs, batch size, learning
     rate and its cosine decay to 5 % over each fit, DAgger rounds, the final log-std); return
@@ -290,12 +292,13 @@ def behaviour_clone(model: PPO, teacher: Policy, settings: WarmStartSettings, ta
     clone) after the first fit and after every DAgger round; its results are returned under
     ``rounds`` with the decisions labelled so far (the clone's learning curve).
     ``checkpoint``: save the progress there and resume from what is saved there (see the
-    module's docstring)."""
+    module's docstring). ``fitted(done)``: called after every epoch with the epochs fitted so
+    far over all rounds, of ``total_fit_epochs(settings)`` (progress lines)."""
     decisions, epochs, lr = settings.decisions, settings.epochs, settings.lr
     dagger_rounds, seed = settings.dagger, task.seed
     t0 = time.perf_counter()
     policy = model.policy
-    optimiser = torch.optim.Adam(policy.parameters(), lr=lr)
+    optimiser = torch.optim.Adam(policy.parameters(), lr=lr, **ADAM_KWARGS)
     gen = torch.Generator().manual_seed(seed)
 
     def student(obs: np.ndarray) -> np.ndarray:
@@ -348,11 +351,14 @@ def behaviour_clone(model: PPO, teacher: Policy, settings: WarmStartSettings, ta
             if store is not None:
                 store.save_data(k, data[k])
             save()
-        fit_epochs = epochs if k == 0 else max(1, epochs // 2)
+        fit_epochs = _fit_epochs(epochs, k)
+        earlier = sum(_fit_epochs(epochs, r) for r in range(k))  # fitted in earlier rounds
 
-        def epoch_done(epoch: int, losses: dict[str, float]) -> None:
+        def epoch_done(epoch: int, losses: dict[str, float], earlier: int = earlier) -> None:
             run.epoch, run.losses = epoch + 1, losses
             save()
+            if fitted is not None:
+                fitted(earlier + epoch + 1)
 
         if run.epoch < fit_epochs:
             _fit(policy, optimiser, gen, data, fit_epochs, settings.batch_size, lr,
@@ -372,6 +378,17 @@ def behaviour_clone(model: PPO, teacher: Policy, settings: WarmStartSettings, ta
     run.result = out
     save()
     return out
+
+
+def _fit_epochs(epochs: int, round_: int) -> int:
+    """Epochs of round ``round_``'s fit: all of them for the teacher's data (round 0), half as
+    many for each DAgger round's."""
+    return epochs if round_ == 0 else max(1, epochs // 2)
+
+
+def total_fit_epochs(settings: WarmStartSettings) -> int:
+    """Epochs a whole warm start fits, over all its rounds."""
+    return sum(_fit_epochs(settings.epochs, r) for r in range(settings.dagger + 1))
 
 
 def _fit(policy: Any, optimiser: Any, gen: Any, data: list[tuple[np.ndarray, ...]],
