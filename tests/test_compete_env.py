@@ -127,3 +127,23 @@ def test_a_resumed_opponent_stream_survives_the_trainers_seeded_reset():
     restarted = _env(64, opponents=[scripted, hrl])
     restarted.reset(seed=2)
     assert (restarted.opponent_of != expected).any()  # the stream from its start differs
+
+
+def test_golden_turns_against_a_mixed_pool():
+    """80 seeded turns of 8 games against two opponents, hashed (observations, rewards, ends,
+    points, decisions, scores, opponents): recorded before the turn env and the flat env came
+    to share ``CompeteSeat``, so the split changed nothing."""
+    import hashlib
+
+    env = _env(8, seed=5, opponents=[agent("scripted"), agent("random", seed=1)],
+               weights=[0.6, 0.4], max_decisions=400)
+    h = hashlib.sha256()
+    obs, _ = env.reset(seed=5)
+    h.update(obs.tobytes())
+    for a in np.random.default_rng(2).uniform(-1, 1, (80, 8, 1)).astype(np.float32):
+        obs, reward, term, trunc, info = env.step(a)
+        for v in (obs, reward, term, trunc, info["points_won"], info["points_lost"],
+                  info["decisions"], info["score"], info["opponent"]):
+            h.update(np.ascontiguousarray(v).tobytes())
+    h.update(str(env.decisions_simulated).encode())
+    assert h.hexdigest() == "bee63e2474c9f59d1c8368e9eb80e6859291ecec05d66500068d4e27dfba1450"

@@ -131,6 +131,7 @@ def test_a_fixed_pool_takes_no_snapshots(tmp_path):
 
 def test_pool_weights():
     from rallysim.train.league import League
+    from rallysim.train.stages import COMPETE
 
     class Env:
         rng = np.random.default_rng(0)
@@ -139,7 +140,7 @@ def test_pool_weights():
             self.agents, self.weights = agents, weights
 
     config = load_config("compete", overrides={"league.window": 2})
-    league = League(config, Path("/nonexistent"), Env())
+    league = League(config, Path("/nonexistent"), Env(), COMPETE)
     league.snapshots = [{"name": f"s{i}", "turns": i} for i in range(5)]
     league._agents = {f"s{i}": object() for i in range(5)}
     agents, weights = league.opponents()

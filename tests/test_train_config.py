@@ -45,7 +45,7 @@ def test_settings_are_generated_from_the_dataclasses():
                 for field in fields(cls)}
     top = {field.name for field in fields(TrainConfig)} - set(SECTIONS)
     assert set(setting_names()) == sections | top
-    assert len(setting_names()) == 16 + 8 + 3 + 13 + 11  # top level: 11 with goals
+    assert len(setting_names()) == 16 + 8 + 3 + 13 + 12  # top level: 12 with init_policy
     # every generated name is accepted by --set with the text of its current value
     base = load_config("high")
     for name in setting_names():
@@ -86,7 +86,7 @@ def test_unknown_setting_names_the_nearest(key, hint):
 def test_budget_unit_per_stage_in_config_and_records(tmp_path):
     units = {name: load_config(name).budget_unit for name in stages.NAMES}
     assert units == {"low": "decisions", "high": "turns", "mono": "player-decisions",
-                     "compete": "turns"}
+                     "compete": "turns", "compete_mono": "decisions"}
     doc = load_config("mono").to_dict()
     assert list(doc)[3:5] == ["budget", "budget_unit"] and doc["budget_unit"] == (
         "player-decisions")

@@ -16,11 +16,15 @@ player, frozen) plays its own turns inside the span, until the learner's next tu
   probabilities ``weights`` (``set_opponents`` changes them for the games that start next).
 - ``info``: ``points_won``, ``points_lost``, ``decisions`` of the span; at a game's end
   ``score`` (learner, opponent) and ``opponent`` (its index in the list it was drawn from).
+
+``CompeteDecisionVectorEnv`` is the same game for a flat (Monolithic) learner, which acts
+every decision: one step is one decision, the action the player's motor action. What both
+share (the games, the opponents and their draws, the points counted) is ``CompeteSeat``.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -34,25 +38,22 @@ from rallysim.policies.registry import resolve
 from rallysim.policies.types import Agent, LowLevel
 
 
-class CompeteTurnVectorEnv(NativeVectorEnv):
-    """The learner's turns of N competitive games against frozen opponents (see the module)."""
+class CompeteSeat(NativeVectorEnv):
+    """The learner's seat in N competitive games against frozen opponents drawn per game: the
+    games, the opponents, the points counted. Subclasses say how the learner acts."""
 
     metadata = {"render_modes": [], "autoreset_mode": SAME_STEP}
     player_spec: PlayerSpec = SIMPLE
 
-    def __init__(self, num_envs: int, opponents: Sequence[Agent],
-                 weights: Sequence[float] | None = None, low_level: LowLevel | str = "pretrained",
-                 seed: int | None = None, autoreset_mode: str = "same_step",
-                 max_decisions: int = 20_000, shuttle: str = "paper") -> None:
+    def _setup_seat(self, num_envs: int, opponents: Sequence[Agent],
+                    weights: Sequence[float] | None, seed: int | None, autoreset_mode: str,
+                    max_decisions: int, shuttle: str, action_size: int) -> None:
         self._setup(num_envs, autoreset_mode)
         self.max_decisions = positive_int(max_decisions, "max_decisions")
         spec = self.player_spec
         n = self.num_units
         self.task = RallyTask(n, RallyConfig(shuttle=shuttle, mode="competitive"), seed, spec)
-        self.low = resolve(low_level, "rally_low", spec)
         self.side = np.arange(n) % 2
-        self.goals = np.empty((n, *spec.goal.shape))
-        self.goals[:] = spec.goal.default
         self.elapsed = np.zeros(n, np.int64)
         self.rng = np.random.default_rng(seed)
         self._resumed_rng: dict[str, Any] | None = None
@@ -62,11 +63,11 @@ class CompeteTurnVectorEnv(NativeVectorEnv):
         self.set_opponents(opponents, weights)
         self.decisions_simulated = 0
         self._tally = np.zeros(2, np.int64)  # points won, lost since take_tally()
-        obs_size = self.player_spec.rally_obs.size
+        obs_size = spec.rally_obs.size
         self.single_observation_space = spaces.Box(-1.0, 1.0, (obs_size,), np.float32)
-        self.single_action_space = spaces.Box(-1.0, 1.0, (spec.goal.size,), np.float32)
+        self.single_action_space = spaces.Box(-1.0, 1.0, (action_size,), np.float32)
         self.observation_space = spaces.Box(-1.0, 1.0, (n, obs_size), np.float32)
-        self.action_space = spaces.Box(-1.0, 1.0, (n, spec.goal.size), np.float32)
+        self.action_space = spaces.Box(-1.0, 1.0, (n, action_size), np.float32)
 
     # -- opponents ------------------------------------------------------------------------------
     def set_opponents(self, opponents: Sequence[Agent],
@@ -116,6 +117,68 @@ class CompeteTurnVectorEnv(NativeVectorEnv):
         self.rng.bit_generator.state = state
         self._resumed_rng = state
 
+    def _observe(self) -> np.ndarray:
+        return self.task.observe()[np.arange(self.num_units), self.side]
+
+    # -- one decision ---------------------------------------------------------------------------
+    def _decide(self, running: np.ndarray, actions: np.ndarray,
+                learner: Callable[[np.ndarray, np.ndarray], np.ndarray]
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """One decision of the games ``running``, their actions written into ``actions``
+        (N, 2, action_size): the learner's ``learner(observations, rows)`` for the running
+        rows, each opponent's by its agent. Returns the games that ended, and the points the
+        learner won and lost."""
+        task = self.task
+        rows = np.flatnonzero(running)
+        me, opponent = self.side, 1 - self.side
+        obs = task.observe()
+        actions[rows, me[rows]] = learner(obs[rows, me[rows]], rows)
+        for agent, members in self._groups(rows):
+            s = opponent[members]
+            actions[members, s] = agent.act(obs[members, s], task.turn_started[members, s],
+                                            members)
+        _, over, _, info = task.step(np.clip(actions, -1.0, 1.0), active=running)
+        self.elapsed += running
+        winner = info["point_winner"]
+        scored = running & (winner >= 0)
+        return over, scored & (winner == me), scored & (winner != me)
+
+    def _result(self, won: np.ndarray, lost: np.ndarray, decisions: np.ndarray,
+                term: np.ndarray, trunc: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
+        """A step's reward (points won - lost), ends and info; counts the points and
+        decisions."""
+        n = self.num_units
+        self.decisions_simulated += int(decisions.sum())
+        self._tally += [int(won.sum()), int(lost.sum())]
+        info = {"points_won": won, "points_lost": lost, "decisions": decisions,
+                "score": np.stack([self.task.score[np.arange(n), self.side],
+                                   self.task.score[np.arange(n), 1 - self.side]], axis=1),
+                "opponent": self.opponent_of.copy()}
+        return (won - lost).astype(np.float64), term, trunc, info
+
+    def _groups(self, rows: np.ndarray) -> list[tuple[Agent, np.ndarray]]:
+        """The games of ``rows`` grouped by the agent they play against, in a fixed order."""
+        order: dict[int, list[int]] = {}
+        for r in rows.tolist():
+            order.setdefault(id(self._agent_of[r]), []).append(r)
+        return [(self._agent_of[m[0]], np.array(m)) for m in order.values()]
+
+
+class CompeteTurnVectorEnv(CompeteSeat):
+    """The learner's turns of N competitive games against frozen opponents (see the module)."""
+
+    def __init__(self, num_envs: int, opponents: Sequence[Agent],
+                 weights: Sequence[float] | None = None, low_level: LowLevel | str = "pretrained",
+                 seed: int | None = None, autoreset_mode: str = "same_step",
+                 max_decisions: int = 20_000, shuttle: str = "paper") -> None:
+        spec = self.player_spec
+        self._setup_seat(num_envs, opponents, weights, seed, autoreset_mode, max_decisions,
+                         shuttle, spec.goal.size)
+        self.low = resolve(low_level, "rally_low", spec)
+        self.goals = np.empty((self.num_units, *spec.goal.shape))
+        self.goals[:] = spec.goal.default
+
     def _reset_units(self, units: np.ndarray, options: dict | None) -> None:
         self.task.reset(units)
         self.goals[units] = self.player_spec.goal.default
@@ -133,9 +196,6 @@ class CompeteTurnVectorEnv(NativeVectorEnv):
         self.goals[units] = goals[units].reshape(self.goals[units].shape)
         return self._advance(units)
 
-    def _observe(self) -> np.ndarray:
-        return self.task.observe()[np.arange(self.num_units), self.side]
-
     # -- the span -------------------------------------------------------------------------------
     def _advance(self, units: np.ndarray, fresh: bool = False,
                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
@@ -149,41 +209,48 @@ class CompeteTurnVectorEnv(NativeVectorEnv):
         decisions = np.zeros(n, np.int64)
         term = np.zeros(n, bool)
         trunc = np.zeros(n, bool)
-        learner, opponent = self.side, 1 - self.side
+        me = np.arange(n), self.side
         actions = np.zeros((n, 2, task.action_size))
         if fresh:
-            running &= ~task.turn_started[np.arange(n), learner]
+            running &= ~task.turn_started[me]
         while running.any():
-            rows = np.flatnonzero(running)
-            obs = task.observe()
-            actions[rows, learner[rows]] = self.low(obs[rows, learner[rows]], self.goals[rows])
-            for agent, members in self._groups(rows):
-                s = opponent[members]
-                actions[members, s] = agent.act(obs[members, s], task.turn_started[members, s],
-                                                members)
-            _, over, _, info = task.step(np.clip(actions, -1.0, 1.0), active=running)
+            over, w, lo = self._decide(running, actions,
+                                       lambda obs, rows: self.low(obs, self.goals[rows]))
             decisions += running
-            self.elapsed += running
-            winner = info["point_winner"]
-            scored = running & (winner >= 0)
-            won += scored & (winner == learner)
-            lost += scored & (winner != learner)
+            won += w
+            lost += lo
             term |= running & over
             trunc |= running & ~over & (self.elapsed >= self.max_decisions)
-            turn = task.turn_started[np.arange(n), learner]
-            running &= ~(over | turn | trunc)
-        self.decisions_simulated += int(decisions.sum())
-        self._tally += [int(won.sum()), int(lost.sum())]
-        reward = (won - lost).astype(np.float64)
-        info = {"points_won": won, "points_lost": lost, "decisions": decisions,
-                "score": np.stack([task.score[np.arange(n), learner],
-                                   task.score[np.arange(n), opponent]], axis=1),
-                "opponent": self.opponent_of.copy()}
-        return reward, term, trunc, info
+            running &= ~(over | task.turn_started[me] | trunc)
+        return self._result(won, lost, decisions, term, trunc)
 
-    def _groups(self, rows: np.ndarray) -> list[tuple[Agent, np.ndarray]]:
-        """The games of ``rows`` grouped by the agent they play against, in a fixed order."""
-        order: dict[int, list[int]] = {}
-        for r in rows.tolist():
-            order.setdefault(id(self._agent_of[r]), []).append(r)
-        return [(self._agent_of[m[0]], np.array(m)) for m in order.values()]
+
+class CompeteDecisionVectorEnv(CompeteSeat):
+    """N competitive games against frozen opponents for a flat learner that acts every
+    decision: the action is the player's motor action (SIMPLE: 3 values in [-1, 1]), and one
+    step is one decision of every game (see the module)."""
+
+    def __init__(self, num_envs: int, opponents: Sequence[Agent],
+                 weights: Sequence[float] | None = None, seed: int | None = None,
+                 autoreset_mode: str = "same_step", max_decisions: int = 20_000,
+                 shuttle: str = "paper") -> None:
+        self._setup_seat(num_envs, opponents, weights, seed, autoreset_mode, max_decisions,
+                         shuttle, self.player_spec.action.size)
+
+    def _reset_units(self, units: np.ndarray, options: dict | None) -> None:
+        self.task.reset(units)
+        self.elapsed[units] = 0
+        self._draw_opponents(units)
+
+    def _step_units(self, actions: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
+        from rallysim.core.validation import validate_actions
+
+        n = self.num_units
+        a = validate_actions(actions, (self.num_envs, self.player_spec.action.size))
+        running = np.ones(n, bool)
+        running[self._pending] = False
+        over, won, lost = self._decide(running, np.zeros((n, 2, self.task.action_size)),
+                                       lambda obs, rows: a[rows])
+        trunc = running & ~over & (self.elapsed >= self.max_decisions)
+        return self._result(won.astype(np.int64), lost.astype(np.int64),
+                            running.astype(np.int64), running & over, trunc)

@@ -103,9 +103,13 @@ def agent(name: str, player: str | PlayerSpec = "simple", seed: int = 0,
     return Hierarchical(resolve(str(prefix), "high", p), resolve(low, "rally_low", p), name, p)
 
 
+# the training stages whose policies act on the rally every decision (``Direct`` players)
+DIRECT_STAGES = ("mono", "compete_mono")
+
+
 def _role(prefix: Path) -> str:
     """``mono`` for a policy that acts on the rally every decision, else ``high``."""
     doc = json.loads(prefix.with_suffix(".json").read_text())
     metadata = doc.get("metadata") if isinstance(doc, dict) else None
     stage = metadata.get("stage") if isinstance(metadata, dict) else None
-    return "mono" if stage == "mono" else "high"
+    return "mono" if stage in DIRECT_STAGES else "high"

@@ -45,7 +45,11 @@ OPPONENTS = ("scripted", "hrl")
 TARGETS = {"champion_vs_scripted": 0.8, "champion_vs_hrl": 0.8, "best_response": 0.6}
 
 
-def _games(a: str, b: str, games: int, seed: int, max_decisions: int) -> dict[str, Any]:
+def play_summary(a: str, b: str, games: int, seed: int, max_decisions: int
+                 ) -> dict[str, Any]:
+    """``games`` games of agent ``a`` against ``b``: ``summarise``'s rates with 95 %
+    intervals, and per game the points ``a`` won and the points played (``per_game``, what
+    ``pooled_rate`` pools)."""
     from rallysim.eval.agents import agent
     from rallysim.eval.competitive import play_games, summarise
 
@@ -60,7 +64,6 @@ def run_seed(seed: int, out: Path, budget: int, br_budget: int, games: int,
              max_decisions: int = 20_000, overrides: dict[str, Any] | None = None) -> Path:
     """One seed's champion, its games, its ratings and its best response (see the module);
     returns the seed's JSON."""
-    from rallysim.train import checkpoint as ckpt
     from rallysim.train.config import load_config
     from rallysim.train.runner import train_stage
 
@@ -71,17 +74,16 @@ def run_seed(seed: int, out: Path, budget: int, br_budget: int, games: int,
     train_stage(load_config("compete", overrides={**base, "budget": budget}), league_dir)
     champion = str(league_dir / "policy")
     league_s = time.perf_counter() - t0
-    versus = {name: _games(champion, name, games, EVAL_SEED + i, max_decisions)
+    versus = {name: play_summary(champion, name, games, EVAL_SEED + i, max_decisions)
               for i, name in enumerate(OPPONENTS)}
-    state = json.loads(ckpt.latest_checkpoint(league_dir).read_text())["stage_state"]
-    ratings = [{"turns": h["turns"], "rating": h.get("rating")} for h in state["history"]]
+    ratings = [{"turns": h["turns"], "rating": h["rating"]} for h in league_history(league_dir)]
     t1 = time.perf_counter()
     br_dir = out / f"best_response_seed{seed}"
     train_stage(load_config("compete", overrides={
         **base, "budget": br_budget, "league.opponents": champion}), br_dir)
     br_s = time.perf_counter() - t1
-    best_response = _games(str(br_dir / "policy"), champion, games, EVAL_SEED + 10,
-                           max_decisions)
+    best_response = play_summary(str(br_dir / "policy"), champion, games, EVAL_SEED + 10,
+                                 max_decisions)
     values = [r["rating"] for r in ratings if r["rating"] is not None]
     doc = {"seed": seed, "budget": budget, "br_budget": br_budget, "games": games,
            "max_decisions": max_decisions, "overrides": overrides or {},
@@ -93,6 +95,15 @@ def run_seed(seed: int, out: Path, budget: int, br_budget: int, games: int,
     path = out / f"seed{seed}.json"
     path.write_text(json.dumps(doc, indent=1))
     return path
+
+
+def league_history(run: Path) -> list[dict[str, Any]]:
+    """A league run's snapshots as its newest checkpoint records them, oldest first: their
+    ``turns`` (units of the stage's budget) and ``rating`` (None when unrated)."""
+    from rallysim.train import checkpoint as ckpt
+
+    state = json.loads(ckpt.latest_checkpoint(run).read_text())["stage_state"]
+    return [{"turns": h["turns"], "rating": h.get("rating")} for h in state["history"]]
 
 
 def pooled_rate(per_seed: list[dict[str, list[int]]], n_boot: int = 2000,

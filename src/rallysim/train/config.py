@@ -70,6 +70,9 @@ class TrainConfig:
     # high stage: the frozen low level (path prefix, pretrained or scripted; HUMAN-LIKE: also
     # "scripted" for AimedSwing)
     low_policy: str = "pretrained"
+    # compete_mono stage: the Monolithic policy its actor starts from (path prefix, pretrained,
+    # or none: random weights)
+    init_policy: str = "pretrained"
     # low stage: what comes over ("serve", "mixed", "rally") and whether the player carries its
     # state from one episode to the next (the original builds) instead of a random start
     incoming: str = "serve"

@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 from safetensors.numpy import save_file
 
-from rallysim.policies.mlp import FORMAT, FORMAT_VERSION, policy_paths, sha256_file
+from rallysim.policies.mlp import FORMAT, FORMAT_VERSION, MLPPolicy, policy_paths, sha256_file
 from rallysim.train.checkpoint import json_default
 
 Layers = list[tuple[np.ndarray, np.ndarray]]  # (weight (out, in), bias (out,)) per linear layer
@@ -46,6 +46,31 @@ def _actor_layers(model: Any) -> tuple[Layers, str, np.ndarray]:
     layers.append((head.weight.detach().cpu().numpy(), head.bias.detach().cpu().numpy()))
     log_std = policy.log_std.detach().cpu().numpy()
     return layers, activation or "tanh", log_std
+
+
+def load_actor(model: Any, policy: Any) -> None:
+    """Put an exported actor (``rallysim.policies.mlp.MLPPolicy``) into SB3 PPO ``model``'s
+    actor, the inverse of ``save_policy``: its linear layers, activation and log-std must be
+    the model's shape; the critic is left as it is."""
+    import torch
+
+    if not isinstance(policy, MLPPolicy):
+        raise ValueError(f"an exported MLP actor is needed to start from, got {policy!r}")
+    layers, activation, log_std = _actor_layers(model)
+    shapes = [(w.shape, b.shape) for w, b in layers]
+    given = [(w.shape, b.shape) for w, b in policy.layers]
+    if given != shapes or policy.activation != activation or \
+            policy.log_std.shape != log_std.shape:
+        raise ValueError(f"the policy's actor ({len(given)} layers, {policy.activation}) does "
+                         f"not fit this model's ({len(shapes)} layers, {activation}): "
+                         f"{given} against {shapes}")
+    linears = [m for m in model.policy.mlp_extractor.policy_net
+               if isinstance(m, torch.nn.Linear)] + [model.policy.action_net]
+    with torch.no_grad():
+        for module, (w, b) in zip(linears, policy.layers, strict=True):
+            module.weight.copy_(torch.as_tensor(w))
+            module.bias.copy_(torch.as_tensor(b))
+        model.policy.log_std.copy_(torch.as_tensor(policy.log_std))
 
 
 def save_policy(model: Any, path_prefix: str | Path, env_id: str = "RallySim/SimpleReturn-v0",

@@ -1,7 +1,9 @@
 """The compete stage's league: who the learner plays, when it is copied, how copies are rated.
 
 The pool (after ML-Agents' ghost trainer): frozen snapshots of the learner, exported as policy
-files (``RUN/pool/snapshot_{turns:012d}.{safetensors,json}``). A game draws its opponent:
+files (``RUN/pool/snapshot_{N:012d}.{safetensors,json}``, N the units of the stage's budget
+done: turns for compete, decisions for compete_mono; the records call them ``turns``). A game
+draws its opponent:
 
 - the latest snapshot with probability ``league.latest_ratio``;
 - one of the ``league.anchors`` (fixed agents of ``rallysim.eval.agents``, e.g. the scripted
@@ -10,7 +12,7 @@ files (``RUN/pool/snapshot_{turns:012d}.{safetensors,json}``). A game draws its 
   when there are none yet).
 
 A snapshot is taken when the run starts (the untrained learner), every
-``league.snapshot_every`` turns, and early once the learner has won ``league.win_threshold``
+``league.snapshot_every`` units, and early once the learner has won ``league.win_threshold``
 of the last ``league.win_points`` or more training points against the pool. The agents of
 ``league.ladder`` are first rated among themselves (``rallysim.eval.ratings.calibrate``: a
 round-robin of ``league.rating_games`` games per pair); then each new snapshot plays
@@ -32,14 +34,14 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from rallysim.eval.agents import Hierarchical, agent
-from rallysim.players import get_player
+from rallysim.eval.agents import agent
 from rallysim.policies.registry import resolve
 from rallysim.policies.types import Agent
 
 if TYPE_CHECKING:
-    from rallysim.envs.compete_turn import CompeteTurnVectorEnv
+    from rallysim.envs.compete_turn import CompeteSeat
     from rallysim.train.config import TrainConfig
+    from rallysim.train.stages.base import Stage
 
 POOL = "pool"
 
@@ -47,8 +49,9 @@ POOL = "pool"
 class League:
     """The pool and ratings of one compete run (see the module)."""
 
-    def __init__(self, config: TrainConfig, out: Path, env: CompeteTurnVectorEnv) -> None:
+    def __init__(self, config: TrainConfig, out: Path, env: CompeteSeat, stage: Stage) -> None:
         self.config, self.out, self.env = config, Path(out), env
+        self.stage = stage  # the learner's kind: its snapshots' agents and exports
         settings = config.league
         self.fixed = settings.names(settings.opponents)
         self.anchor_names = [] if self.fixed else settings.names(settings.anchors)
@@ -70,10 +73,8 @@ class League:
 
     def snapshot_agent(self, name: str) -> Agent:
         if name not in self._agents:
-            prefix = self.out / POOL / name
-            high = resolve(str(prefix), "high", self.config.player)
-            self._agents[name] = Hierarchical(high, self.low, name,
-                                              get_player(self.config.player))
+            self._agents[name] = self.stage.snapshot_agent(self.config, self.out / POOL / name,
+                                                           name, self.low)
         return self._agents[name]
 
     # -- the pool -------------------------------------------------------------------------------
@@ -120,11 +121,10 @@ class League:
 
         name = f"snapshot_{turns:012d}"
         won, lost = (int(v) for v in self.tally)
-        save_policy(model, self.out / POOL / name,
-                    env_id="rallysim.envs.compete_turn:CompeteTurnVectorEnv",
-                    metadata={"stage": "compete", "player": self.config.player,
+        save_policy(model, self.out / POOL / name, env_id=self.stage.export_env(self.config),
+                    metadata={"stage": self.config.stage, "player": self.config.player,
                               "seed": self.config.seed, "steps": turns,
-                              "goal_mapping": get_player(self.config.player).goal.mapping})
+                              "goal_mapping": self.stage.goal_mapping(self.config)})
         record = {"name": name, "turns": turns, "train_points_won": won,
                   "train_points_lost": lost}
         self.snapshots.append(record)

@@ -13,6 +13,7 @@ import argparse
 import json
 import re
 import sys
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -39,6 +40,20 @@ def render(results: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
+def _renderer(kind: str | None) -> Callable[[dict[str, Any]], str]:
+    """What renders a JSON of this kind: a reproduction's (no kind) or docs/competitive.md's
+    studies."""
+    if kind == "compete_study":
+        from rallysim.train.compete_study import render as render_study
+
+        return render_study
+    if kind == "compete_flat":
+        from rallysim.train.compete_flat_study import render as render_flat
+
+        return render_flat
+    return render
+
+
 def blocks(doc: str) -> list[str]:
     return [m["name"] for m in BLOCK.finditer(doc)]
 
@@ -51,11 +66,7 @@ def regenerate(doc: str, data_dir: Path) -> str:
         if not path.is_file():
             raise FileNotFoundError(f"generated block {m['name']!r} needs {path}")
         data = json.loads(path.read_text())
-        if data.get("kind") == "compete_study":  # docs/competitive.md's tables
-            from rallysim.train.compete_study import render as render_study
-
-            return m.group(1) + render_study(data) + m.group(4)
-        return m.group(1) + render(data) + m.group(4)
+        return m.group(1) + _renderer(data.get("kind"))(data) + m.group(4)
 
     return BLOCK.sub(fill, doc)
 

@@ -5,7 +5,9 @@
 - ``high`` (``HIGH``, ``.high``): the turn-based rally over a frozen low level; budget in turns;
 - ``mono`` (``MONO``, ``.mono``): the rally at the physics rate; budget in player-decisions;
 - ``compete`` (``COMPETE``, ``.compete``): the competitive high level by self-play against a
-  league of its snapshots (``rallysim.train.league``); budget in turns.
+  league of its snapshots (``rallysim.train.league``); budget in turns;
+- ``compete_mono`` (``COMPETE_MONO``, ``.compete_mono``): the flat competitive baseline, one
+  network acting every decision, by self-play in the same league; budget in decisions.
 
 Each holds its env factory, evaluation, export and player table (``rallysim.train.stages.base.
 Stage``); both runners (SB3 and RLlib) run any of them the same way. The functions below take a
@@ -18,6 +20,7 @@ from typing import TYPE_CHECKING, Any
 
 from rallysim.train.stages.base import Stage, rally_result
 from rallysim.train.stages.compete import COMPETE
+from rallysim.train.stages.compete_mono import COMPETE_MONO
 from rallysim.train.stages.high import HIGH
 from rallysim.train.stages.low import LOW
 from rallysim.train.stages.mono import MONO
@@ -27,11 +30,12 @@ if TYPE_CHECKING:
     from rallysim.train.config import TrainConfig
     from rallysim.train.sb3_vec import NativeVecEnv
 
-__all__ = ["COMPETE", "HIGH", "LOW", "MONO", "NAMES", "STAGES", "Stage", "by_name",
+__all__ = ["COMPETE", "COMPETE_MONO", "HIGH", "LOW", "MONO", "NAMES", "STAGES", "Stage", "by_name",
            "evaluate", "export_env", "goal_mapping", "headline",
            "make_env", "of", "rally_result", "score"]
 
-STAGES: dict[str, Stage] = {stage.name: stage for stage in (LOW, HIGH, MONO, COMPETE)}
+STAGES: dict[str, Stage] = {stage.name: stage
+                            for stage in (LOW, HIGH, MONO, COMPETE, COMPETE_MONO)}
 NAMES: tuple[str, ...] = tuple(STAGES)
 
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, ClassVar
 
-from rallysim.policies.types import Policy
+from rallysim.policies.types import Agent, LowLevel, Policy
 from rallysim.train.stages.base import Stage
 
 if TYPE_CHECKING:
@@ -44,15 +44,14 @@ class CompeteStage(Stage):
 
     def evaluate(self, config: TrainConfig, act: Policy, rallies: int | None = None
                  ) -> dict[str, Any]:
-        from rallysim.eval.agents import Hierarchical, agent
+        from rallysim.eval.agents import agent
         from rallysim.eval.competitive import play_games, summarise
         from rallysim.players import get_player
-        from rallysim.policies.callables import Composed
         from rallysim.policies.registry import resolve
 
         p = get_player(config.player)
         low = resolve(config.low_policy, "rally_low", p)
-        me = Hierarchical(Composed(p.goal.from_action, act), low, "learner", p)
+        me = self.learner(config, act, low)
         games = rallies or config.eval.episodes
         result: dict[str, Any] = {"games": games}
         names = config.league.names(config.league.eval_opponents)
@@ -64,6 +63,27 @@ class CompeteStage(Stage):
         first = result[f"vs_{names[0]}"] if names else None
         result["point_win_rate"] = first["point_win_rate"]["value"] if first else float("nan")
         return result
+
+    def learner(self, config: TrainConfig, act: Policy, low: LowLevel) -> Agent:
+        """The learner's deterministic policy ``act`` as a player: its goals for the frozen
+        low level ``low``."""
+        from rallysim.eval.agents import Hierarchical
+        from rallysim.players import get_player
+        from rallysim.policies.callables import Composed
+
+        p = get_player(config.player)
+        return Hierarchical(Composed(p.goal.from_action, act), low, "learner", p)
+
+    def snapshot_agent(self, config: TrainConfig, prefix: Path, name: str,
+                       low: LowLevel) -> Agent:
+        """A frozen snapshot of the learner (the policy exported at ``prefix``) as a player,
+        over the league's low level ``low``."""
+        from rallysim.eval.agents import Hierarchical
+        from rallysim.players import get_player
+        from rallysim.policies.registry import resolve
+
+        p = get_player(config.player)
+        return Hierarchical(resolve(str(prefix), "high", p), low, name, p)
 
     def headline(self, config: TrainConfig, result: dict[str, Any]) -> str:
         parts = [f"{key[3:]} {value['point_win_rate']['value']:.3f}"
@@ -88,7 +108,7 @@ class CompeteStage(Stage):
         first snapshot is the untrained learner."""
         from rallysim.train.league import League
 
-        league = League(config, out, model.get_env().venv)
+        league = League(config, out, model.get_env().venv, self)
         if state is not None:
             league.restore(state)
         elif league.self_play:
@@ -106,7 +126,7 @@ class CompeteStage(Stage):
             record = league.add_snapshot(model, turns)
             if say is not None and "rating" in record:
                 rates = ", ".join(f"{k} {v:.2f}" for k, v in record["point_win_rate"].items())
-                say(f"snapshot {len(league.snapshots)} at {turns:,} turns: rating "
+                say(f"snapshot {len(league.snapshots)} at {turns:,} {self.unit}: rating "
                     f"{record['rating']:.2f}; point-win rate {rates}")
             logger = getattr(model, "_logger", None)
             if logger is not None and "rating" in record:
