@@ -89,13 +89,10 @@ def test_bad_actions_are_refused():
 torch = pytest.importorskip("torch")
 pytest.importorskip("stable_baselines3")
 
+from test_compete_train import TINY  # noqa: E402  (the hierarchical league's tiny run)
+
 from rallysim.train.config import load_config  # noqa: E402
 from rallysim.train.runner import build_model, train_stage  # noqa: E402
-
-TINY = {"budget": 1024, "ppo.n_envs": 8, "ppo.n_steps": 64, "ppo.batch_size": 256,
-        "ppo.n_epochs": 2, "checkpoint_every": 512, "eval.every": 0, "eval.episodes": 2,
-        "league.snapshot_every": 512, "league.max_decisions": 3000,
-        "league.rating_games": 1, "league.ladder": "scripted"}
 
 
 def _run(out: Path, **overrides) -> dict:
