@@ -24,7 +24,13 @@ import time
 from pathlib import Path
 from typing import Any
 
-from rallysim.train.compete_study import EVAL_SEED, league_history, play_summary, pooled_rate
+from rallysim.train.compete_study import (
+    EVAL_SEED,
+    ci_cell,
+    league_history,
+    play_summary,
+    pooled_rate,
+)
 
 OPPONENTS = ("scripted", "hrl", "mono", "simple_compete")
 KIND = "compete_flat"
@@ -82,11 +88,6 @@ def report(out: Path) -> dict[str, Any]:
     return result
 
 
-def _cell(e: dict[str, float] | None) -> str:
-    return "—" if e is None or e.get("value") is None else (
-        f"{e['value']:.3f} [{e['low']:.3f}, {e['high']:.3f}]")
-
-
 def render(result: dict[str, Any]) -> str:
     """The baseline's table for docs/competitive.md."""
     st, opponents = result["settings"], result["opponents"]
@@ -101,9 +102,9 @@ def render(result: dict[str, Any]) -> str:
         "|---|" + "---|" * (len(opponents) + 1),
     ]
     for s in result["seeds"]:
-        lines.append(f"| {s['seed']} | " + " | ".join(_cell(s[f"vs_{n}"]) for n in opponents)
+        lines.append(f"| {s['seed']} | " + " | ".join(ci_cell(s[f"vs_{n}"]) for n in opponents)
                      + f" | {s['wall_s']['total'] / 60:.1f} |")
-    lines.append("| pooled | " + " | ".join(_cell(result["pooled"][n]) for n in opponents)
+    lines.append("| pooled | " + " | ".join(ci_cell(result["pooled"][n]) for n in opponents)
                  + " | |")
     lines += ["", "Snapshot ratings (OpenSkill ordinal against the calibrated ladder, as the "
               "league logged them), oldest first:", ""]

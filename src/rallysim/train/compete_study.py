@@ -364,7 +364,8 @@ def _exploitability_figure(seeds: list[dict[str, Any]], pooled: dict[str, Any],
 
 
 # -- docs ---------------------------------------------------------------------------------------
-def _cell(e: dict[str, float] | None) -> str:
+def ci_cell(e: dict[str, float] | None) -> str:
+    """A rate and its 95 % interval as a table cell (``—`` where undefined)."""
     return "—" if e is None or e.get("value") is None else (
         f"{e['value']:.3f} [{e['low']:.3f}, {e['high']:.3f}]")
 
@@ -388,12 +389,12 @@ def render(result: dict[str, Any]) -> str:
         "|---|" + "---|" * (len(opponents) + 2),
     ]
     for s in result["seeds"]:
-        lines.append(f"| {s['seed']} | " + " | ".join(_cell(s[f"vs_{n}"]) for n in opponents)
-                     + f" | {_cell(s['best_response'])} | "
+        lines.append(f"| {s['seed']} | " + " | ".join(ci_cell(s[f"vs_{n}"]) for n in opponents)
+                     + f" | {ci_cell(s['best_response'])} | "
                      f"{'yes' if s['ratings_monotonic'] else 'no'} |")
     p = result["pooled"]
-    lines.append("| pooled | " + " | ".join(_cell(p[f"champion_vs_{n}"]) for n in opponents)
-                 + f" | {_cell(p['best_response'])} | |")
+    lines.append("| pooled | " + " | ".join(ci_cell(p[f"champion_vs_{n}"]) for n in opponents)
+                 + f" | {ci_cell(p['best_response'])} | |")
     lines += ["", f"The reference ladder, calibrated by a round-robin of {lad['games']} games "
               f"per pair (seed {lad['seed']}, each point a match), best first:", "",
               "| rung | mu | sigma | ordinal |", "|---|---|---|---|"]
@@ -437,7 +438,7 @@ def render(result: dict[str, Any]) -> str:
               "|---|" + "---|" * len(names)]
     for k, i in enumerate(index):
         lines.append(f"| {names[k]} | "
-                     + " | ".join(_cell(cp["point_win_rate"][i][j]) for j in index) + " |")
+                     + " | ".join(ci_cell(cp["point_win_rate"][i][j]) for j in index) + " |")
     lines += ["", f"The whole matrix ({len(cp['players'])} players: the ladder and every seed's "
               f"snapshots and champion; {len(cp['pairs'])} pairs played, players of different "
               "seeds only champion against champion) is `crossplay` in the JSON.", "",

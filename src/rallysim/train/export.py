@@ -21,9 +21,9 @@ from rallysim.train.checkpoint import json_default
 Layers = list[tuple[np.ndarray, np.ndarray]]  # (weight (out, in), bias (out,)) per linear layer
 
 
-def _actor_layers(model: Any) -> tuple[Layers, str, np.ndarray]:
-    """(weight, bias) of the actor's linear layers, its activation and log-std, from an SB3
-    ``ActorCriticPolicy`` with an identity (flatten) feature extractor."""
+def _actor_modules(model: Any) -> tuple[list[Any], str]:
+    """The actor's linear modules, the Gaussian's mean head last, and its activation, from an
+    SB3 ``ActorCriticPolicy`` with an identity (flatten) feature extractor."""
     import torch
 
     policy = model.policy
@@ -31,21 +31,25 @@ def _actor_layers(model: Any) -> tuple[Layers, str, np.ndarray]:
         raise TypeError("only MLP policies over flat observations can be exported")
     if getattr(model, "_vec_normalize_env", None) is not None:
         raise TypeError("observation normalisation (VecNormalize) is not exported")
-    layers: Layers = []
+    linears: list[Any] = []
     activation = None
     for module in policy.mlp_extractor.policy_net:
         if isinstance(module, torch.nn.Linear):
-            layers.append((module.weight.detach().cpu().numpy(),
-                           module.bias.detach().cpu().numpy()))
+            linears.append(module)
         else:
             name = {torch.nn.Tanh: "tanh", torch.nn.ReLU: "relu"}.get(type(module))
             if name is None or activation not in (None, name):
                 raise TypeError(f"unsupported actor activation {module!r}")
             activation = name
-    head = policy.action_net
-    layers.append((head.weight.detach().cpu().numpy(), head.bias.detach().cpu().numpy()))
-    log_std = policy.log_std.detach().cpu().numpy()
-    return layers, activation or "tanh", log_std
+    return [*linears, policy.action_net], activation or "tanh"
+
+
+def _actor_layers(model: Any) -> tuple[Layers, str, np.ndarray]:
+    """(weight, bias) of the actor's linear layers, its activation and log-std."""
+    linears, activation = _actor_modules(model)
+    layers = [(m.weight.detach().cpu().numpy(), m.bias.detach().cpu().numpy())
+              for m in linears]
+    return layers, activation, model.policy.log_std.detach().cpu().numpy()
 
 
 def load_actor(model: Any, policy: Any) -> None:
@@ -56,21 +60,20 @@ def load_actor(model: Any, policy: Any) -> None:
 
     if not isinstance(policy, MLPPolicy):
         raise ValueError(f"an exported MLP actor is needed to start from, got {policy!r}")
-    layers, activation, log_std = _actor_layers(model)
-    shapes = [(w.shape, b.shape) for w, b in layers]
+    linears, activation = _actor_modules(model)
+    log_std = model.policy.log_std
+    shapes = [(tuple(m.weight.shape), tuple(m.bias.shape)) for m in linears]
     given = [(w.shape, b.shape) for w, b in policy.layers]
     if given != shapes or policy.activation != activation or \
-            policy.log_std.shape != log_std.shape:
+            policy.log_std.shape != tuple(log_std.shape):
         raise ValueError(f"the policy's actor ({len(given)} layers, {policy.activation}) does "
                          f"not fit this model's ({len(shapes)} layers, {activation}): "
                          f"{given} against {shapes}")
-    linears = [m for m in model.policy.mlp_extractor.policy_net
-               if isinstance(m, torch.nn.Linear)] + [model.policy.action_net]
     with torch.no_grad():
         for module, (w, b) in zip(linears, policy.layers, strict=True):
             module.weight.copy_(torch.as_tensor(w))
             module.bias.copy_(torch.as_tensor(b))
-        model.policy.log_std.copy_(torch.as_tensor(policy.log_std))
+        log_std.copy_(torch.as_tensor(policy.log_std))
 
 
 def save_policy(model: Any, path_prefix: str | Path, env_id: str = "RallySim/SimpleReturn-v0",

@@ -253,13 +253,12 @@ def _run_all(budget: Budget, out: Path, workers: int, cap: int
     wall time until the last stage was trained.
 
     With one worker the steps run in this process: every seed's stages, then the
-    evaluations. With more, a pool of
-    fresh processes takes single steps: a seed's next step is submitted as soon as its last
-    one is done, and a free worker takes the step of the seed with most steps left (every
-    seed's chain of steps is the same length, so starting the longest chains first keeps
-    both cores busy to the end; three seeds on two cores no longer leave the third seed's
-    whole chain to run alone). Each step is deterministic on its own, so the results do not
-    depend on which process ran it or when."""
+    evaluations. With more, a pool of fresh processes takes single steps: a seed's next step
+    is submitted as soon as its last one is done, and a free worker takes the step of the seed
+    with most steps left (every seed's chain of steps is the same length, so starting the
+    longest chains first keeps both cores busy to the end; three seeds on two cores no longer
+    leave the third seed's whole chain to run alone). Each step is deterministic on its own,
+    so the results do not depend on which process ran it or when."""
     seeds = range(budget.seeds)
     curves: dict[int, dict[str, Any]] = {s: {} for s in seeds}
     evaluations: dict[int, Any] = {}
@@ -278,10 +277,10 @@ def _run_all(budget: Budget, out: Path, workers: int, cap: int
         steps_done[seed] += 1
 
     if workers == 1:  # every seed's stages, then every seed's evaluation
-        for step in (METHOD_STAGES, ("evaluate",)):
+        for steps in (METHOD_STAGES, ("evaluate",)):
             for s in seeds:
-                for one in step:
-                    record(s, run_seed_step(s, one, budget, out, curves[s], cap))
+                for step in steps:
+                    record(s, run_seed_step(s, step, budget, out, curves[s], cap))
         return curves, evaluations, train_wall
     ctx = mp.get_context("spawn")  # fresh interpreters: torch and fork do not mix
     manager = ctx.Manager()

@@ -15,6 +15,7 @@ from rallysim.policies.types import Agent, LowLevel, Policy
 from rallysim.train.stages.base import Stage
 
 if TYPE_CHECKING:
+    from rallysim.envs.compete_turn import CompeteSeat
     from rallysim.train.config import TrainConfig
     from rallysim.train.sb3_vec import NativeVecEnv
 
@@ -29,15 +30,20 @@ class CompeteStage(Stage):
     score_key: ClassVar[str] = "point_win_rate"
 
     def make_env(self, config: TrainConfig) -> NativeVecEnv:
-        from rallysim.envs.compete_turn import CompeteTurnVectorEnv
         from rallysim.eval.agents import agent
         from rallysim.train.sb3_vec import NativeVecEnv
 
         # a placeholder opponent until the league sets the pool (begin)
-        first = agent("scripted", config.player)
-        return NativeVecEnv(CompeteTurnVectorEnv(
-            config.ppo.n_envs, [first], low_level=config.low_policy, seed=config.seed,
-            max_decisions=config.league.max_decisions, shuttle=config.shuttle))
+        return NativeVecEnv(self.seat(config, [agent("scripted", config.player)]))
+
+    def seat(self, config: TrainConfig, opponents: list[Agent]) -> CompeteSeat:
+        """The learner's seat in ``config.ppo.n_envs`` games: it plays turns over the frozen
+        low level."""
+        from rallysim.envs.compete_turn import CompeteTurnVectorEnv
+
+        return CompeteTurnVectorEnv(
+            config.ppo.n_envs, opponents, low_level=config.low_policy, seed=config.seed,
+            max_decisions=config.league.max_decisions, shuttle=config.shuttle)
 
     def env_options(self, config: TrainConfig) -> dict[str, Any]:
         return {"shuttle": config.shuttle, "low_policy": config.low_policy}

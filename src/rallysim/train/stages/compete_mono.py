@@ -20,8 +20,8 @@ from rallysim.policies.types import Agent, LowLevel, Policy
 from rallysim.train.stages.compete import CompeteStage
 
 if TYPE_CHECKING:
+    from rallysim.envs.compete_turn import CompeteSeat
     from rallysim.train.config import TrainConfig
-    from rallysim.train.sb3_vec import NativeVecEnv
 
 EXPORT_ENV = "rallysim.envs.compete_turn:CompeteDecisionVectorEnv"
 
@@ -31,16 +31,13 @@ class CompeteMonoStage(CompeteStage):
     unit: ClassVar[str] = "decisions"
     title: ClassVar[str] = "flat compete"
 
-    def make_env(self, config: TrainConfig) -> NativeVecEnv:
+    def seat(self, config: TrainConfig, opponents: list[Agent]) -> CompeteSeat:
+        """The learner's seat in ``config.ppo.n_envs`` games: it acts every decision."""
         from rallysim.envs.compete_turn import CompeteDecisionVectorEnv
-        from rallysim.eval.agents import agent
-        from rallysim.train.sb3_vec import NativeVecEnv
 
-        # a placeholder opponent until the league sets the pool (begin)
-        first = agent("scripted", config.player)
-        return NativeVecEnv(CompeteDecisionVectorEnv(
-            config.ppo.n_envs, [first], seed=config.seed,
-            max_decisions=config.league.max_decisions, shuttle=config.shuttle))
+        return CompeteDecisionVectorEnv(
+            config.ppo.n_envs, opponents, seed=config.seed,
+            max_decisions=config.league.max_decisions, shuttle=config.shuttle)
 
     def env_options(self, config: TrainConfig) -> dict[str, Any]:
         return {"shuttle": config.shuttle}
