@@ -108,14 +108,16 @@ def test_shipped_rl_only_low_level_scores_as_measured():
 
 
 def test_rl_alone_doc_matches_its_run():
-    """docs/rl-alone.md's Table VII block is rendered from the committed run's JSON."""
+    """docs/rl-alone.md's generated blocks (Table VII of ``--budget rl``, the learning curves,
+    the reference returns) are rendered from the committed runs' JSON."""
     from pathlib import Path
 
     from rallysim.train.results_doc import regenerate
 
     root = Path(__file__).resolve().parents[1]
     doc = (root / "docs" / "rl-alone.md").read_text()
-    assert "BEGIN GENERATED: reproduce_rl" in doc
+    for name in ("reproduce_rl", "low_curves", "reference_returns"):
+        assert f"BEGIN GENERATED: {name}" in doc
     assert regenerate(doc, root / "docs" / "data") == doc, (
         "run: python -m rallysim.train.results_doc --doc docs/rl-alone.md")
     data = json.loads((root / "docs" / "data" / "reproduce_rl.json").read_text())
@@ -130,3 +132,22 @@ def test_v1_goal_option_does_not_shift_the_stream():
     _, info = given.reset(seed=8, options={"target_depth": 5.0})
     assert info["target_depth"] == 5.0
     np.testing.assert_array_equal(plain.reset()[0], given.reset()[0])
+
+
+def test_the_low_stage_evaluation_scores_goal_following():
+    """The low stage's periodic evaluation (its learning curve) carries the goal following of
+    the same episodes: the scripted controller's correlation over reachable goals, about 0.94,
+    as ``score_low_level`` gives it, beside the task's own statistics."""
+    from rallysim.eval.low_eval import evaluate_return
+    from rallysim.train.config import load_config
+    from rallysim.train.stages.low import LOW
+
+    config = load_config("low", None, {"eval.seed": 7})
+    result = LOW.evaluate(config, SCRIPTED.act_return, 300)
+    reference = score_low_level(SCRIPTED.act_return, 300, seed=7)
+    assert result["goal_correlation"] == reference["goal_correlation"]
+    assert result["goal_correlation"] == pytest.approx(0.943, abs=0.01)
+    assert result["median_landing_error_reachable"] == (
+        reference["median_landing_error_reachable"])
+    assert result["mean_reward"] == evaluate_return(SCRIPTED.act_return, episodes=300,
+                                                    seed=7).mean_reward

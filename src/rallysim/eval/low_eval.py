@@ -143,6 +143,14 @@ def goal_following(ep: ReturnEpisodes, seed: int, shuttle: str) -> dict[str, Any
     }
 
 
+def goal_scores(ep: ReturnEpisodes, seed: int, shuttle: str) -> dict[str, float | None]:
+    """``goal_following``'s correlation and median error over reachable goals, ``None`` where
+    too few hits leave one undefined (JSON has no NaN)."""
+    scores = goal_following(ep, seed, shuttle)
+    return {k: None if np.isnan(scores[k]) else scores[k]
+            for k in ("goal_correlation", "median_landing_error_reachable")}
+
+
 def _median(values: np.ndarray) -> float:
     return float(np.median(values)) if len(values) else float("nan")
 

@@ -75,6 +75,22 @@ def estimate(groups: Sequence[np.ndarray], statistic: Statistic, n_boot: int = 2
                     float(np.quantile(reps, 1.0 - a)))
 
 
+def over_seeds(values: Sequence[float | None]) -> dict[str, float] | None:
+    """The mean of one value per seed with its 95 % bootstrap interval (seeds resampled), as
+    JSON-ready ``value``, ``low``, ``high``; None if any seed's value is undefined."""
+    if not values or any(v is None for v in values):
+        return None
+    est = estimate([np.array([v], np.float64) for v in values], mean)
+    return {"value": est.value, "low": est.low, "high": est.high}
+
+
+def interval_cell(e: dict[str, float] | None, digits: int = 2) -> str:
+    """``value [low, high]`` as a table cell (``—`` where undefined)."""
+    if e is None:
+        return "—"
+    return f"{e['value']:.{digits}f} [{e['low']:.{digits}f}, {e['high']:.{digits}f}]"
+
+
 def _share(count: np.ndarray, of: np.ndarray) -> np.ndarray:
     """count / of, NaN where there is nothing to count (bootstrap intervals skip those)."""
     with np.errstate(invalid="ignore", divide="ignore"):

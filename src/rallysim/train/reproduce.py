@@ -160,7 +160,7 @@ def evaluate_seed(seed: int, out: Path, rallies: int, low_episodes: int,
     """Rally lengths of every method (rallies end at ``cap`` hits), and the low level's
     numbers, for one trained seed."""
     from rallysim.eval.compare import play_methods
-    from rallysim.eval.low_eval import goal_following, play_returns, summarise_returns
+    from rallysim.eval.low_eval import goal_scores, play_returns, summarise_returns
     from rallysim.eval.rally_eval import rules_for_cap
     from rallysim.policies.mlp import load_policy
     from rallysim.policies.registry import resolve
@@ -176,12 +176,8 @@ def evaluate_seed(seed: int, out: Path, rallies: int, low_episodes: int,
     # one set of episodes for both the task's statistics and goal following
     played = play_returns(load_policy(low_prefix), episodes=low_episodes, seed=eval_seed)
     low_eval = summarise_returns(played)
-    scores = goal_following(played, eval_seed, "paper")
-    # (null, not NaN, where too few hits leave a value undefined: JSON has no NaN)
-    follows = {k: None if np.isnan(scores[k]) else scores[k]
-               for k in ("goal_correlation", "median_landing_error_reachable")}
     return {"lengths": {k: v.tolist() for k, v in lengths.items()},
-            "low_level": {**low_eval.as_dict(), **follows}}
+            "low_level": {**low_eval.as_dict(), **goal_scores(played, eval_seed, "paper")}}
 
 
 def run_reproduce(budget: Budget, out: Path, workers: int | None = None,

@@ -41,8 +41,8 @@ def render(results: dict[str, Any]) -> str:
 
 
 def _renderer(kind: str | None) -> Callable[[dict[str, Any]], str]:
-    """What renders a JSON of this kind: a reproduction's (no kind) or docs/competitive.md's
-    studies."""
+    """What renders a JSON of this kind: a reproduction's (no kind), docs/competitive.md's
+    studies or docs/rl-alone.md's."""
     if kind == "compete_study":
         from rallysim.train.compete_study import render as render_study
 
@@ -51,6 +51,14 @@ def _renderer(kind: str | None) -> Callable[[dict[str, Any]], str]:
         from rallysim.train.compete_flat_study import render as render_flat
 
         return render_flat
+    if kind == "low_curves":
+        from rallysim.train.low_curves_study import render as render_curves
+
+        return render_curves
+    if kind == "reference_returns":
+        from rallysim.train.reference_returns import render as render_reference
+
+        return render_reference
     return render
 
 

@@ -50,10 +50,13 @@ def _simple_kwargs(config: TrainConfig) -> dict[str, Any]:
 
 
 def _simple_evaluate(config: TrainConfig, act: Policy, episodes: int) -> dict[str, Any]:
-    from rallysim.eval.low_eval import evaluate_return
+    """The task's statistics and, from the same episodes, how closely landings follow the goal
+    (the learning curves of docs/rl-alone.md plot both)."""
+    from rallysim.eval.low_eval import goal_scores, play_returns, summarise_returns
 
-    return evaluate_return(act, episodes=episodes, seed=config.eval.seed,
-                           shuttle=config.shuttle).as_dict()
+    played = play_returns(act, episodes=episodes, seed=config.eval.seed, shuttle=config.shuttle)
+    return {**summarise_returns(played).as_dict(),
+            **goal_scores(played, config.eval.seed, config.shuttle)}
 
 
 def _simple_headline(result: dict[str, Any]) -> str:
