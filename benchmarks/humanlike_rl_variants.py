@@ -26,6 +26,7 @@ import argparse
 import json
 import time
 from pathlib import Path
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
@@ -50,7 +51,7 @@ class VelocityReward(gym.vector.VectorWrapper):
         super().__init__(env)
         self.kind, self.k = kind, k
 
-    def step(self, actions: np.ndarray):
+    def step(self, actions: np.ndarray) -> tuple[Any, ...]:
         obs, reward, terminated, truncated, info = self.env.step(actions)
         hit = info["hit"]
         if hit.any():
@@ -68,6 +69,7 @@ class VelocityReward(gym.vector.VectorWrapper):
 
 
 def parse_variant(text: str) -> tuple[str, float]:
+    """``paper``, or ``KIND:K`` with KIND one of exp, only, cos: ``(kind, k)``."""
     kind, _, k = text.partition(":")
     if kind not in KINDS or (kind != "paper") != bool(k):
         raise argparse.ArgumentTypeError(f"variant: paper, exp:K, only:K or cos:K; got {text!r}")

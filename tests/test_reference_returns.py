@@ -52,37 +52,68 @@ def test_every_task_builds_its_env():
         env.close()
 
 
-def test_the_goal_view_recomputes_the_task_reward():
-    """Hindsight relabelling's reward function: for the goal the env drew it gives the reward
-    the env gave, on every step (the scripted controller lands most shots, so the landing term
-    is tested); at a landing, the achieved goal is the landing depth, scaled like the goal."""
+def _fixed_aim_episode(goal: float, seed: int = 3, envs: int = 32):
+    """Each env's first episode under the goal view, the scripted controller aiming at 4 m
+    whatever the env's goal (so the play is the same for every goal): per step the rewards,
+    the achieved goals of the next observations (terminal ones at the end), the infos."""
     from rallysim.policies import ScriptedController
     from rallysim.sb3 import make_vec_env
     from rallysim.train.reference_returns import NO_LANDING, GoalReturnVecEnv
 
-    env = GoalReturnVecEnv(make_vec_env("RallySim/SimpleReturn-v0", n_envs=32, seed=3))
-    controller = ScriptedController()
+    env = GoalReturnVecEnv(make_vec_env("RallySim/SimpleReturn-v0", n_envs=envs, seed=seed))
+    env.set_options({"target_depth": goal})
+    aim = ScriptedController()
     obs = env.reset()
-    landings = 0
-    for _ in range(60):
+    done = np.zeros(envs, bool)
+    steps = []
+    while not done.all():
         flat = np.concatenate([obs["observation"], obs["desired_goal"]], axis=1)
-        obs, reward, dones, infos = env.step(controller.act_return(flat))
+        obs, reward, dones, infos = env.step(aim(flat, np.full(envs, 4.0)))
+        # a live observation never carries a landing: only the terminal one does
+        assert (obs["achieved_goal"] == NO_LANDING).all()
         achieved = obs["achieved_goal"].copy()
         for e in np.flatnonzero(dones):
             achieved[e] = infos[e]["terminal_observation"]["achieved_goal"]
-        desired = obs["desired_goal"].copy()
-        for e in np.flatnonzero(dones):
-            desired[e] = infos[e]["terminal_observation"]["desired_goal"]
-        np.testing.assert_allclose(env.compute_reward(achieved, desired, infos), reward,
+        steps.append((reward.copy(), achieved, infos, done.copy()))
+        done |= dones
+    return env, steps
+
+
+def test_the_goal_view_relabels_with_the_envs_own_reward():
+    """Hindsight relabelling's reward function: the same play (aimed at 4 m) under goal 3 m
+    and under goal 5 m; ``compute_reward`` of the 3 m play's achieved goals for the 5 m goal
+    gives, step by step, the reward the env itself gave the 5 m play. A shot that landed in
+    court has its landing depth, scaled like the goal, as the achieved goal."""
+    from rallysim.train.reference_returns import NO_LANDING
+
+    env, at3 = _fixed_aim_episode(3.0)
+    _, at5 = _fixed_aim_episode(5.0)
+    assert len(at3) == len(at5)
+    landings = 0
+    five = np.full((32, 1), (5.0 - 4.0) / 2.0, np.float32)
+    for (r3, achieved, infos, before), (r5, _, _, _) in zip(at3, at5, strict=True):
+        live = ~before  # envs still in their first episode
+        np.testing.assert_allclose(env.compute_reward(achieved, five, infos)[live], r5[live],
                                    atol=1e-6)
-        for e in np.flatnonzero(dones):
-            if infos[e]["reward_landing"] > 0:
-                landings += 1
-                assert achieved[e, 0] == pytest.approx((infos[e]["landing_depth"] - 4) / 2)
-            else:
-                assert achieved[e, 0] == NO_LANDING
-    assert landings > 20
-    # relabelled to where the shot landed, the landing term is its maximum, 1
-    e = next(e for e in range(32) if achieved[e, 0] > NO_LANDING)
-    assert env.env_method("compute_reward", achieved[e:e + 1], achieved[e:e + 1],
-                          [{"reward_free": 0.0}])[0][0] == pytest.approx(1.0)
+        three = np.full((32, 1), -0.5, np.float32)
+        np.testing.assert_allclose(env.compute_reward(achieved, three, infos)[live], r3[live],
+                                   atol=1e-6)
+        for e in np.flatnonzero(live & (achieved[:, 0] > NO_LANDING)):
+            landings += 1
+            assert achieved[e, 0] == pytest.approx((infos[e]["landing_depth"] - 4.0) / 2.0)
+    assert landings >= 20
+    assert not np.allclose(sum(r[0] for r in at3), sum(r[0] for r in at5))  # goals mattered
+
+
+def test_sac_with_hindsight_relabelling_runs_at_smoke_scale():
+    run = run_one("SimpleReturn-v0", "SAC+HER", 0, 1e-6, 8)
+    assert run["steps"] == 1280 and len(run["returns"]) == 8  # 640 random, then updates
+    assert set(run["scores"]) == {"hit_rate", "median_landing_error", "goal_correlation"}
+    with pytest.raises(ValueError, match="goal to relabel"):
+        run_one("SimpleRally-v0 (parallel)", "SAC+HER", 0, 1e-6, 8)
+
+
+def test_random_actions_are_the_floor_row():
+    run = run_one("SimpleRallyTurn-v1", "random", 0, 1.0, 4)
+    assert run["steps"] == 0 and len(run["returns"]) == 4
+    assert run == run_one("SimpleRallyTurn-v1", "random", 0, 1.0, 4)  # seeded

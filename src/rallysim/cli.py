@@ -630,7 +630,7 @@ _COMPETITIVE_ONLY = {"--players": "players", "--games": "games", "--seed": "seed
 
 def _check_competitive(args: argparse.Namespace) -> None:
     """Refuse (UsageError) a competitive evaluation that cannot run, before any game."""
-    if args.player != "simple":
+    if args.player not in (None, "simple"):
         raise UsageError("--mode competitive plays SIMPLE players only (leave out --player)")
     for option, (dest, default) in _COOPERATIVE_ONLY.items():
         if getattr(args, dest) != default:
@@ -734,6 +734,26 @@ def _evaluate_competitive(args: argparse.Namespace) -> dict:
     return {"crossplay": _evaluate_crossplay(args)}
 
 
+def _low_level_player(low: str) -> str:
+    """The player a low-level policy (a shipped name or a path prefix) was trained for, read
+    from its JSON's env id, so that ``evaluate --low humanlike_low_rl`` needs no ``--player``;
+    ``simple`` where it names none (``pretrained``, ``scripted``, ``random``)."""
+    import json
+
+    from rallysim.envs.registration import HUMANLIKE_RETURN_ID
+    from rallysim.policies.registry import shipped_prefix
+
+    prefix = shipped_prefix(low) or Path(low)
+    meta = prefix.with_name(prefix.name + ".json")
+    if not meta.is_file():
+        return "simple"
+    try:
+        env_id = json.loads(meta.read_text()).get("env_id")
+    except (ValueError, AttributeError):
+        return "simple"  # not a policy document: loading it says why
+    return "humanlike" if env_id == HUMANLIKE_RETURN_ID else "simple"
+
+
 def _evaluate(args: argparse.Namespace) -> int:
     """Evaluate HRL, Random High-level and Monolithic (pretrained or given policies), or a
     HUMAN-LIKE low level and its 3-D rally; or, with ``--mode competitive``, players in games
@@ -746,6 +766,8 @@ def _evaluate(args: argparse.Namespace) -> int:
         for option, dest in _COMPETITIVE_ONLY.items():
             if getattr(args, dest) is not None:
                 raise UsageError(f"{option} needs --mode competitive")
+        if args.player is None:
+            args.player = _low_level_player(args.low)
         results = _EVALUATIONS[args.player](args)
     if args.json:
         Path(args.json).parent.mkdir(parents=True, exist_ok=True)
@@ -868,9 +890,10 @@ def build_parser() -> argparse.ArgumentParser:
 
     ev = sub.add_parser("evaluate", help="rally statistics of HRL, Random High-level, "
                         "Monolithic; or of a HUMAN-LIKE low level (--player humanlike)")
-    ev.add_argument("--player", choices=players, default="simple",
+    ev.add_argument("--player", choices=players, default=None,
                     help="humanlike: the low level's hit rate, angle and speed errors on "
-                         "--episodes serves, and the 3-D rally it plays")
+                         "--episodes serves, and the 3-D rally it plays (default: the "
+                         "player --low was trained for, else simple)")
     ev.add_argument("--env", choices=players, dest="player", action=_DeprecatedName,
                     new="--player", help="deprecated name of --player")
     ev.set_defaults(deprecated=[])

@@ -80,8 +80,7 @@ def over_seeds(values: Sequence[float | None]) -> dict[str, float] | None:
     JSON-ready ``value``, ``low``, ``high``; None if any seed's value is undefined."""
     if not values or any(v is None for v in values):
         return None
-    est = estimate([np.array([v], np.float64) for v in values], mean)
-    return {"value": est.value, "low": est.low, "high": est.high}
+    return asdict(estimate([np.array([v], np.float64) for v in values], mean))
 
 
 def interval_cell(e: dict[str, float] | None, digits: int = 2) -> str:

@@ -38,6 +38,7 @@ from typing import Any
 
 import numpy as np
 
+from rallysim.eval.stats import interval_cell
 from rallysim.train.progress import say_stderr
 
 EVAL_SEED = 20_000  # evaluation games' seeds: apart from every training seed
@@ -366,8 +367,7 @@ def _exploitability_figure(seeds: list[dict[str, Any]], pooled: dict[str, Any],
 # -- docs ---------------------------------------------------------------------------------------
 def ci_cell(e: dict[str, float] | None) -> str:
     """A rate and its 95 % interval as a table cell (``—`` where undefined)."""
-    return "—" if e is None or e.get("value") is None else (
-        f"{e['value']:.3f} [{e['low']:.3f}, {e['high']:.3f}]")
+    return interval_cell(None if e is None or e.get("value") is None else e, 3)
 
 
 def _rate(value: float | None) -> str:

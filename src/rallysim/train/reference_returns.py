@@ -39,7 +39,7 @@ import sys
 import time
 from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from multiprocessing import get_context
 from pathlib import Path
 from typing import Any
@@ -114,6 +114,8 @@ class GoalReturnVecEnv(VecEnvWrapper):
 
     @staticmethod
     def split(obs: np.ndarray, achieved: np.ndarray | None = None) -> dict[str, np.ndarray]:
+        """The goal dictionary of flat task observations ``(..., 17)``; ``achieved``
+        ``(n, 1)``, else ``NO_LANDING``."""
         obs = np.asarray(obs, np.float32)
         flat = obs.reshape(-1, obs.shape[-1])
         if achieved is None:
@@ -126,6 +128,8 @@ class GoalReturnVecEnv(VecEnvWrapper):
         return self.split(self.venv.reset())
 
     def step_wait(self) -> Any:
+        """The task's step as goal dictionaries; each info carries the step's goal-free reward
+        (``reward_free``) for ``compute_reward``."""
         obs, reward, dones, infos = self.venv.step_wait()
         achieved = np.full((self.num_envs, 1), NO_LANDING, np.float32)
         for e, info in enumerate(infos):
@@ -136,7 +140,9 @@ class GoalReturnVecEnv(VecEnvWrapper):
                     achieved[e, 0] = (info["landing_depth"] - 4.0) / 2.0
                 info["terminal_observation"] = self.split(info["terminal_observation"],
                                                           achieved[e])
-        return self.split(obs, achieved), reward, dones, infos
+        # a new episode has landed nothing yet: the landing goes only into the episode's
+        # terminal observation, which is where SB3's buffers read the last step from
+        return self.split(obs), reward, dones, infos
 
     def compute_reward(self, achieved: np.ndarray, desired: np.ndarray, infos: Any
                        ) -> np.ndarray:
@@ -147,6 +153,8 @@ class GoalReturnVecEnv(VecEnvWrapper):
 
     def env_method(self, method_name: str, *args: Any, indices: Any = None,
                    **kwargs: Any) -> list[Any]:
+        """SB3's ``HerReplayBuffer`` asks the vector env's first env for ``compute_reward``;
+        the batched env behind this view has no per-env objects, so this view answers."""
         if method_name == "compute_reward":
             return [self.compute_reward(*args, **kwargs)]
         return self.venv.env_method(method_name, *args, indices=indices, **kwargs)
@@ -156,15 +164,12 @@ def _task_scores(task: Task, policy: Callable[[np.ndarray], np.ndarray], episode
                  ) -> dict[str, float | None]:
     """The return tasks' own measures of the trained policy on fresh serves."""
     if task.name == "SimpleReturn-v0":
-        from rallysim.eval.low_eval import goal_scores, play_returns
+        from rallysim.eval.low_eval import goal_following, play_returns
 
         played = play_returns(policy, episodes=episodes, seed=EVAL_SEED)
-        return {"hit_rate": float(np.mean(played.hit)),
-                "median_landing_error": float(np.median(played.error[played.hit &
-                                                                      np.isfinite(played.error)]))
-                if played.hit.any() else None,
-                **{k: v for k, v in goal_scores(played, EVAL_SEED, "paper").items()
-                   if k == "goal_correlation"}}
+        scores = goal_following(played, EVAL_SEED, "paper")
+        return {k: None if np.isnan(scores[k]) else scores[k]
+                for k in ("hit_rate", "median_landing_error", "goal_correlation")}
     if task.name == "HumanLikeReturn-v0":
         from rallysim.eval.humanlike_eval import evaluate_humanlike
 
@@ -192,7 +197,9 @@ def play_episodes(env: Any, policy: Callable[[np.ndarray], np.ndarray]
 
 def _random_run(task: Task, seed: int, episodes: int) -> dict[str, Any]:
     """Uniform random actions over the task's action space: no training."""
-    space = task.make_env(1, seed).action_space
+    probe = task.make_env(1, seed)
+    space = probe.action_space
+    probe.close()
     rng = np.random.default_rng(seed)
 
     def policy(obs: np.ndarray) -> np.ndarray:
@@ -226,10 +233,14 @@ def run_one(task_name: str, algo: str, seed: int, scale: float, episodes: int
     else:
         if algo == "SAC+HER" and task.name not in HER_TASKS:
             raise ValueError(f"{algo} needs a goal to relabel: {', '.join(HER_TASKS)}")
-        steps = max(int(task.sac_steps * scale), 64)
+        # hindsight relabelling samples whole episodes: its first update waits until every
+        # env has ended one (a return lasts < 80 decisions), even in a smoke run
+        her_start = 80 * SAC_ENVS if algo == "SAC+HER" else 0
+        steps = max(int(task.sac_steps * scale), 64, 2 * her_start)
         env = task.make_env(SAC_ENVS, seed)
-        settings = {**SAC_SETTINGS, "learning_starts": min(SAC_SETTINGS["learning_starts"],
-                                                           steps // 2)}
+        # (a smoke run is shorter than the usual random warm-up)
+        first = max(min(SAC_SETTINGS["learning_starts"], steps // 2), her_start)
+        settings = {**SAC_SETTINGS, "learning_starts": first}
         if algo == "SAC+HER":
             from stable_baselines3 import HerReplayBuffer
 
@@ -269,9 +280,9 @@ def pool(runs: list[dict[str, Any]]) -> list[dict[str, Any]]:
             rows.append({
                 "task": task.name, "algo": algo, "unit": task.unit, "steps": mine[0]["steps"],
                 "seeds": [r["seed"] for r in mine],
-                "mean_return": {"value": ret.value, "low": ret.low, "high": ret.high},
+                "mean_return": asdict(ret),
                 "per_seed_return": [float(np.mean(r["returns"])) for r in mine],
-                "mean_length": {"value": length.value, "low": length.low, "high": length.high},
+                "mean_length": asdict(length),
                 "scores": {k: stats.over_seeds([r["scores"][k] for r in mine]) for k in keys},
                 "train_wall_s": [r["train_wall_s"] for r in mine]})
     return rows
@@ -319,6 +330,14 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.seeds < 1 or args.scale <= 0 or args.episodes < 2 or args.workers < 1:
         parser.error("--seeds, --workers >= 1; --scale > 0; --episodes >= 2")
+    earlier = None
+    if args.merge is not None:
+        earlier = json.loads(args.merge.read_text())
+        same = {"episodes": args.episodes, "scale": args.scale, "sac_settings": SAC_SETTINGS,
+                "sac_envs": SAC_ENVS}
+        differ = [k for k, v in same.items() if earlier.get(k) != v]
+        if differ:
+            parser.error(f"--merge: {args.merge} was run with other {', '.join(differ)}")
     jobs = [(t, a, s) for t in args.tasks for a in args.algos for s in range(args.seeds)
             if a != "SAC+HER" or t in HER_TASKS]
     t0 = time.perf_counter()
@@ -332,10 +351,7 @@ def main(argv: list[str] | None = None) -> int:
                   f"{np.mean(r['returns']):.3f}, {r['train_wall_s']:.0f} s "
                   f"({time.perf_counter() - t0:.0f} s elapsed)", flush=True)
     wall = round(time.perf_counter() - t0, 1)
-    if args.merge is not None:
-        earlier = json.loads(args.merge.read_text())
-        if (earlier["episodes"], earlier["scale"]) != (args.episodes, args.scale):
-            parser.error(f"--merge: {args.merge} was run with other --episodes or --scale")
+    if earlier is not None:
         done = {(r["task"], r["algo"], r["seed"]) for r in runs}
         runs = [r for r in earlier["runs"]
                 if (r["task"], r["algo"], r["seed"]) not in done] + runs
