@@ -45,6 +45,24 @@ def test_a_tiny_study(tmp_path, monkeypatch):
     # the best response trained against the champion alone: no pool of its own
     assert not list((tmp_path / "best_response_seed0").glob("pool/*.json"))
 
+    # the summary: the seed's games pooled and its ratings as logged, no game played
+    light = study.summary(tmp_path)
+    assert light["kind"] == "compete_summary" and light["player"] == "simple"
+    assert light["pooled"]["scripted"]["value"] == pytest.approx(
+        sum(per_game["won"]) / sum(per_game["points"]))
+    assert light["seeds"][0]["ratings"] == doc["ratings"]
+    assert [r["name"] for r in light["ladder"]] == ["scripted"]  # TINY's one-rung ladder
+    assert json.loads((tmp_path / "compete_summary.json").read_text()) == light
+    text = study.render_summary(light)
+    assert "`simple` player" in text and "best response 512 turns" in text
+    assert f"{light['seeds'][0]['vs_scripted']['value']:.3f}" in text
+    # a seed of another study is refused, not pooled
+    other = tmp_path / "seed9.json"
+    other.write_text(json.dumps({**doc, "seed": 9, "budget": 1024}))
+    with pytest.raises(ValueError, match="differ in budget"):
+        study.summary(tmp_path)
+    other.unlink()
+
     # the report: a two-rung ladder calibrated, then the seed's snapshots and champion rated
     # against it and played against each other, in one cross-play matrix
     monkeypatch.setattr("rallysim.eval.ratings.REFERENCE_LADDER", ("random", "scripted"))
@@ -91,6 +109,19 @@ def test_a_tiny_study(tmp_path, monkeypatch):
     again = study.report(tmp_path, games=2, max_decisions=1500, crossplay_games=1)
     assert again["seeds"] == result["seeds"] and again["ladder"] == ladder
     assert {**again["crossplay"], "wall_s": 0} == {**cp, "wall_s": 0}
+
+
+def test_a_seed_without_best_response_is_summarised_not_reported(tmp_path, monkeypatch):
+    monkeypatch.setattr(study, "OPPONENTS", ("scripted",))
+    doc = json.loads(study.run_seed(0, tmp_path, budget=512, br_budget=0, games=1,
+                                    max_decisions=600, overrides=TINY).read_text())
+    assert doc["best_response"] is None and doc["player"] == "simple"
+    assert not (tmp_path / "best_response_seed0").exists()
+    with pytest.raises(ValueError, match="no best response"):
+        study.report(tmp_path, games=1)
+    light = study.summary(tmp_path)
+    assert light["settings"]["br_budget"] == 0
+    assert "no best response" in study.render_summary(light)
 
 
 def test_the_docs_tables_match_the_committed_study():

@@ -26,6 +26,7 @@ from rallysim.eval.crossplay import (
     submatrix,
 )
 from rallysim.eval.ratings import Ratings
+from rallysim.players import SIMPLE
 from rallysim.policies.callables import FixedGoal
 from rallysim.policies.registry import PRETRAINED, resolve
 
@@ -78,6 +79,7 @@ def test_sides_alternate_and_each_agent_acts_for_its_own_side():
     class Constant:
         def __init__(self, value: float) -> None:
             self.name, self.value, self.size = f"constant {value}", value, 0
+            self.player = SIMPLE
 
         def start(self, n: int) -> None:
             pass
@@ -283,7 +285,7 @@ def test_cli_two_players_writes_the_first_players_rates(tmp_path, capsys):
     for key in ("games", "games_finished", "points", "points_won", "lets", "decisions"):
         assert doc[key] == expected[key], key
     assert doc["settings"] == {"games": 4, "seed": 1, "max_decisions": 1500,
-                               "shuttle": "paper", "low": "pretrained"}
+                               "shuttle": "paper", "low": "pretrained", "player": "simple"}
     p = expected["point_win_rate"]
     assert f"point-win rate of random  {p['value']:.2f} [{p['low']:.2f}, {p['high']:.2f}]" \
         in printed
@@ -328,8 +330,14 @@ def test_cli_crossplay_matches_the_function_and_draws_the_heat_map(cross, tmp_pa
     (["--mode", "competitive", "--players", "random", "random"], "repeated"),
     (["--mode", "competitive", "--players", "random", "scripted", "--rallies", "5"],
      "--rallies applies to --mode cooperative"),
-    (["--mode", "competitive", "--players", "random", "scripted", "--player", "humanlike"],
-     "SIMPLE"),
+    (["--mode", "competitive", "--players", "mono", "scripted", "--player", "humanlike"],
+     "no pretrained humanlike mono-level policy"),
+    (["--mode", "competitive", "--players", "fixed:6", "scripted", "--player", "humanlike"],
+     "3 finite value"),
+    (["--mode", "competitive", "--players", "simple_compete", "scripted", "--player",
+      "humanlike"], "'simple_compete' is a simple player"),
+    (["--mode", "competitive", "--players", "random", "scripted", "--player", "humanlike",
+      "--low", "simple_low_rl"], "--low simple_low_rl is a simple low level"),
     (["--mode", "competitive", "--players", "random", "scripted", "--figure", "f.png"],
      "3 or more"),
     (["--mode", "competitive", "--players", "random", "scripted", "hrl", "--figure", "f.pdf"],

@@ -110,7 +110,7 @@ def test_monolithic_meets_hierarchical_with_only_the_held_goal_drawn():
     assert isinstance(mono, Direct) and isinstance(hrl, Hierarchical)
     view = StandInView()
     record_match(mono, hrl, seed=1, max_decisions=150, renderer=view)
-    assert all(t[0] is None for t in view.targets)
+    assert all(np.isnan(t[0]) for t in view.targets)  # NaN: no marker
     goals = [t[1] for t in view.targets]
     assert all(isinstance(g, float) and 2.0 <= g <= 6.0 for g in goals)
     assert goals[-1] == pytest.approx(float(hrl.goals[0]))
@@ -209,7 +209,9 @@ def test_render_players_writes_the_game(tmp_path, capsys):
     (["--mode", "competitive", "--players", "no/such/champion", "hrl"],
      "unknown competitive player 'no/such/champion'"),
     (["--mode", "competitive", "--players", "hrl", "mono", "--env", "low"], "--env low"),
-    (["--mode", "competitive", "--players", "hrl", "mono", "--player", "humanlike"], "SIMPLE"),
+    # HUMAN-LIKE players play competitive games, but no HUMAN-LIKE Monolithic policy is shipped
+    (["--mode", "competitive", "--players", "hrl", "mono", "--player", "humanlike"],
+     "no pretrained humanlike mono-level policy"),
     (["--mode", "competitive", "--players", "hrl", "mono", "--high", "random"], "--high"),
     (["--mode", "competitive", "--players", "hrl", "mono", "--decisions", "0"], "--decisions"),
     (["--mode", "competitive", "--players", "hrl", "mono", "--seconds", "4000"], "--seconds"),

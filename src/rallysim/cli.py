@@ -354,9 +354,6 @@ def _render_match(args: argparse.Namespace) -> int:
         raise UsageError("--players plays competitive games: add --mode competitive")
     if args.env != "rally":
         raise UsageError("--players plays rallies, not the low-level task: drop --env low")
-    if args.player != "simple":
-        raise UsageError("--players: competitive agents are SIMPLE players (no --player "
-                         "humanlike)")
     if args.policy is not None or args.high is not None:
         raise UsageError("--players: each agent brings its own levels; drop --policy and --high")
     decisions = _match_decisions(args)
@@ -369,7 +366,7 @@ def _render_match(args: argparse.Namespace) -> int:
     for path in outputs:
         _require(path, "file")
     # the agents first: an unknown name fails before the folder is made or anything announced
-    a, b = (agent(name, "simple", args.seed) for name in args.players)
+    a, b = (agent(name, args.player, args.seed) for name in args.players)
     out.mkdir(parents=True, exist_ok=True)
     width, height = args.size
     limit = "" if decisions is None else f", at most {decisions} decisions each"
@@ -430,8 +427,8 @@ def _check_opponent(args: argparse.Namespace, human: int | None) -> bool:
             raise UsageError("--opponent brings its own levels: drop --policy and --high")
         return against_agent
     if args.player != "simple":
-        raise UsageError("--opponent: competitive agents are SIMPLE players; HUMAN-LIKE play "
-                         "keeps the shared levels of --policy and --high")
+        raise UsageError("--opponent: the keyboard plays SIMPLE competitive games only; "
+                         "HUMAN-LIKE play keeps the shared levels of --policy and --high")
     if args.mode != "competitive":
         raise UsageError("--opponent plays a competitive game: it needs --mode competitive")
     raise UsageError("--opponent is the opponent of a person at the keyboard (--human 0 or 1); "
@@ -630,11 +627,13 @@ _COMPETITIVE_ONLY = {"--players": "players", "--games": "games", "--seed": "seed
 
 def _check_competitive(args: argparse.Namespace) -> None:
     """Refuse (UsageError) a competitive evaluation that cannot run, before any game."""
-    if args.player not in (None, "simple"):
-        raise UsageError("--mode competitive plays SIMPLE players only (leave out --player)")
     for option, (dest, default) in _COOPERATIVE_ONLY.items():
         if getattr(args, dest) != default:
             raise UsageError(f"{option} applies to --mode cooperative only")
+    low_kind = _low_level_player(args.low)
+    if low_kind not in (None, args.player):
+        raise UsageError(f"--low {args.low} is a {low_kind} low level; these games are "
+                         f"{args.player} players' (--player)")
     if not args.players:
         raise UsageError("--mode competitive needs --players A B [C ...]")
     if len(args.players) < 2:
@@ -657,8 +656,8 @@ def _check_competitive(args: argparse.Namespace) -> None:
                          "pip install 'rallysim[train]'")
     from rallysim.eval.agents import agent
 
-    for name in args.players:
-        agent(name, low=args.low)  # an unknown name: a ValueError listing the valid ones
+    for name in args.players:  # an unknown name: a ValueError listing the valid ones
+        agent(name, args.player, low=args.low)
 
 
 def _estimate(e: dict, digits: int = 2) -> str:
@@ -679,8 +678,9 @@ def _evaluate_two(args: argparse.Namespace) -> dict:
     max_decisions = args.max_decisions or COMPETITIVE_MAX_DECISIONS
     print(f"[evaluate] {a} vs {b}: {games} games ...", file=sys.stderr, flush=True)
     start = time.perf_counter()
-    played = play_games(agent(a, low=args.low), agent(b, low=args.low), games, seed,
-                        args.shuttle, max_decisions)
+    played = play_games(agent(a, args.player, low=args.low),
+                        agent(b, args.player, low=args.low), games, seed, args.shuttle,
+                        max_decisions)
     s = summarise(played, seed=seed)
     print(f"[evaluate] {a} vs {b}: {games} games in {time.perf_counter() - start:.0f} s",
           file=sys.stderr, flush=True)
@@ -693,7 +693,7 @@ def _evaluate_two(args: argparse.Namespace) -> dict:
     for label, value in rows:
         print(f"  {label:{width}s}  {value}")
     settings = {"games": games, "seed": seed, "max_decisions": max_decisions,
-                "shuttle": args.shuttle, "low": args.low}
+                "shuttle": args.shuttle, "low": args.low, "player": args.player}
     return {"players": [a, b], **jsonable(s), "settings": settings}
 
 
@@ -706,7 +706,7 @@ def _evaluate_crossplay(args: argparse.Namespace) -> dict:
 
     result = crossplay(args.players, args.games or COMPETITIVE_GAMES, args.seed or 0,
                        args.max_decisions or COMPETITIVE_MAX_DECISIONS, args.shuttle,
-                       say=say, low=args.low)
+                       say=say, low=args.low, player=args.player)
     names = result["players"]
     width = max(17, *(len(n) for n in names))
     print(f"point-win rate of row vs column ({result['games']} games per pair, seed "
@@ -727,17 +727,32 @@ def _evaluate_crossplay(args: argparse.Namespace) -> dict:
 
 
 def _evaluate_competitive(args: argparse.Namespace) -> dict:
-    """``evaluate --mode competitive``: two players' games, or the cross-play of 3 or more."""
+    """``evaluate --mode competitive``: two players' games, or the cross-play of 3 or more, of
+    the kind ``--player`` (``_inferred_player`` when not given)."""
     _check_competitive(args)
     if len(args.players) == 2:
         return {"competitive": _evaluate_two(args)}
     return {"crossplay": _evaluate_crossplay(args)}
 
 
-def _low_level_player(low: str) -> str:
+def _inferred_player(args: argparse.Namespace) -> str:
+    """The player kind ``evaluate`` plays when ``--player`` is not given: the one ``--low``
+    was trained for, else (``--mode competitive``) the one the ``--players``' policy files
+    play where they agree, else ``simple``."""
+    from rallysim.eval.agents import compete_prefix, policy_player
+
+    kind = _low_level_player(args.low)
+    if kind is None and args.mode == "competitive":
+        kinds = {policy_player(compete_prefix(n) or Path(n)) for n in args.players or []}
+        kinds.discard(None)
+        kind = kinds.pop() if len(kinds) == 1 else None
+    return kind or "simple"
+
+
+def _low_level_player(low: str) -> str | None:
     """The player a low-level policy (a shipped name or a path prefix) was trained for, read
     from its JSON's env id, so that ``evaluate --low humanlike_low_rl`` needs no ``--player``;
-    ``simple`` where it names none (``pretrained``, ``scripted``, ``random``)."""
+    None where it names no file (``pretrained``, ``scripted``, ``random``: any kind's)."""
     import json
 
     from rallysim.envs.registration import HUMANLIKE_RETURN_ID
@@ -746,11 +761,11 @@ def _low_level_player(low: str) -> str:
     prefix = shipped_prefix(low) or Path(low)
     meta = prefix.with_name(prefix.name + ".json")
     if not meta.is_file():
-        return "simple"
+        return None
     try:
         env_id = json.loads(meta.read_text()).get("env_id")
     except (ValueError, AttributeError):
-        return "simple"  # not a policy document: loading it says why
+        return None  # not a policy document: loading it says why
     return "humanlike" if env_id == HUMANLIKE_RETURN_ID else "simple"
 
 
@@ -760,14 +775,14 @@ def _evaluate(args: argparse.Namespace) -> int:
     against each other."""
     import json
 
+    if args.player is None:
+        args.player = _inferred_player(args)
     if args.mode == "competitive":
         results = _evaluate_competitive(args)
     else:
         for option, dest in _COMPETITIVE_ONLY.items():
             if getattr(args, dest) is not None:
                 raise UsageError(f"{option} needs --mode competitive")
-        if args.player is None:
-            args.player = _low_level_player(args.low)
         results = _EVALUATIONS[args.player](args)
     if args.json:
         Path(args.json).parent.mkdir(parents=True, exist_ok=True)
@@ -847,7 +862,7 @@ def build_parser() -> argparse.ArgumentParser:
     train.add_argument("--seed", type=_seed)
     train.add_argument("--shuttle", choices=tuple(SHUTTLE_MODELS))
     train.add_argument("--player", choices=players,
-                       help="the player (default simple; humanlike: low and high stages)")
+                       help="the player (default simple; humanlike: low, high and compete stages)")
     train.add_argument("--env", choices=players, dest="player", action=_DeprecatedName,
                        new="--player", help="deprecated name of --player")
     train.add_argument("--low-policy", dest="low_policy",
@@ -892,8 +907,10 @@ def build_parser() -> argparse.ArgumentParser:
                         "Monolithic; or of a HUMAN-LIKE low level (--player humanlike)")
     ev.add_argument("--player", choices=players, default=None,
                     help="humanlike: the low level's hit rate, angle and speed errors on "
-                         "--episodes serves, and the 3-D rally it plays (default: the "
-                         "player --low was trained for, else simple)")
+                         "--episodes serves, and the 3-D rally it plays; with --mode "
+                         "competitive, games of HUMAN-LIKE players (default: the player --low "
+                         "was trained for, else the one the --players' policy files play, "
+                         "else simple)")
     ev.add_argument("--env", choices=players, dest="player", action=_DeprecatedName,
                     new="--player", help="deprecated name of --player")
     ev.set_defaults(deprecated=[])
@@ -918,9 +935,10 @@ def build_parser() -> argparse.ArgumentParser:
                     help="cooperative (default): rally statistics as above; competitive: "
                          "--players in games against each other")
     ev.add_argument("--players", nargs="+", metavar="NAME",
-                    help="competitive: random, scripted, hrl, mono, simple_compete or a policy "
-                         "path prefix; two: the first's point-win and game-win rates; three "
-                         "or more: the cross-play matrix and OpenSkill ratings")
+                    help="competitive: random, scripted, hrl, mono (SIMPLE), simple_compete "
+                         "(SIMPLE) or a policy path prefix, players of the kind --player; two: "
+                         "the first's point-win and game-win rates; three or more: the "
+                         "cross-play matrix and OpenSkill ratings")
     ev.add_argument("--games", type=_positive,
                     help=f"competitive: games per pair (default {COMPETITIVE_GAMES})")
     ev.add_argument("--seed", type=_seed, help="competitive: the games' seed (default 0)")
@@ -945,8 +963,9 @@ def build_parser() -> argparse.ArgumentParser:
     render.add_argument("--mode", choices=("cooperative", "competitive"), default="cooperative")
     render.add_argument("--players", nargs="+", metavar="NAME",
                         help="with --mode competitive: a game of agent A (player 0, left in "
-                             "the side view) against agent B: random, scripted, hrl, mono, "
-                             "simple_compete or an exported policy's path prefix")
+                             "the side view) against agent B: random, scripted, hrl, mono "
+                             "(SIMPLE), simple_compete (SIMPLE) or an exported policy's path "
+                             "prefix, players of the kind --player")
     render.add_argument("--episodes", type=_positive, default=None,
                         help="episodes, rallies or --players games (default 2; --players: 1)")
     limit = render.add_mutually_exclusive_group()

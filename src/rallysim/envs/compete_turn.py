@@ -171,8 +171,9 @@ class CompeteTurnVectorEnv(CompeteSeat):
     def __init__(self, num_envs: int, opponents: Sequence[Agent],
                  weights: Sequence[float] | None = None, low_level: LowLevel | str = "pretrained",
                  seed: int | None = None, autoreset_mode: str = "same_step",
-                 max_decisions: int = 20_000, shuttle: str = "paper") -> None:
-        spec = self.player_spec
+                 max_decisions: int = 20_000, shuttle: str = "paper",
+                 player_spec: PlayerSpec = SIMPLE) -> None:
+        self.player_spec = spec = player_spec
         self._setup_seat(num_envs, opponents, weights, seed, autoreset_mode, max_decisions,
                          shuttle, spec.goal.size)
         self.low = resolve(low_level, "rally_low", spec)

@@ -19,19 +19,21 @@ from pathlib import Path
 
 import numpy as np
 
-from rallysim.players import SIMPLE, PlayerSpec, get_player
+from rallysim.players import PLAYERS, SIMPLE, PlayerSpec, get_player
 from rallysim.policies.callables import FixedGoal
 from rallysim.policies.registry import PRETRAINED, resolve
 from rallysim.policies.types import Agent, HighLevel, LowLevel, Policy
 
 AGENT_NAMES = {
     "random": "goals drawn uniformly from the goal range, the shipped low level",
-    "scripted": "the scripted controller with the centre goal (4 m)",
-    "hrl": "the shipped cooperative HRL agent (simple_high over simple_low)",
-    "mono": "the shipped cooperative Monolithic agent (simple_mono)",
+    "scripted": "the scripted controller with the centre goal (SIMPLE: 4 m)",
+    "hrl": "the shipped cooperative HRL agent (simple_high over simple_low; HUMAN-LIKE: "
+           "humanlike_high over humanlike_low)",
+    "mono": "the shipped cooperative Monolithic agent (simple_mono; SIMPLE only)",
     "simple_compete": "the shipped competitive champion (simple_compete_high over simple_low)",
-    "fixed:G": "always the goal G (the landing depth in m: 2 to 6), the shipped low level; "
-               "fixed:6, always deep, is the reference ladder's top rung",
+    "fixed:G": "always the goal G (SIMPLE: the landing depth in m, 2 to 6; HUMAN-LIKE: three "
+               "values), the shipped low level; fixed:6, always deep, is the SIMPLE reference "
+               "ladder's top rung",
 }
 
 
@@ -59,8 +61,8 @@ class Hierarchical:
 class Direct:
     """One policy acting on the rally observation every decision (a Monolithic player)."""
 
-    def __init__(self, policy: Policy, name: str = "direct") -> None:
-        self.policy, self.name = policy, name
+    def __init__(self, policy: Policy, name: str = "direct", player: PlayerSpec = SIMPLE) -> None:
+        self.policy, self.name, self.player = policy, name, player
 
     def start(self, n: int) -> None:
         pass
@@ -85,10 +87,13 @@ def agent(name: str, player: str | PlayerSpec = "simple", seed: int = 0,
         return Hierarchical(resolve("pretrained", "high", p), resolve(low, "rally_low", p),
                             name, p)
     if name == "mono":
-        return Direct(resolve("pretrained", "mono", p), name)
+        return Direct(resolve("pretrained", "mono", p), name, p)
     if name.startswith("fixed:"):
         return Hierarchical(resolve(name, "high", p), resolve(low, "rally_low", p), name, p)
-    prefix = PRETRAINED / f"{p.name}_compete_high" if name == f"{p.name}_compete" else Path(name)
+    prefix = compete_prefix(name) or Path(name)
+    if compete_prefix(name) and name != f"{p.name}_compete":
+        raise ValueError(f"{name!r} is a {name[:-len('_compete')]} player: play it as one "
+                         f"(--player {name[:-len('_compete')]}), not as a {p.name} player")
     if name == f"{p.name}_compete" and not prefix.with_suffix(".json").is_file():
         # a valid name whose policy is missing: "unknown" (listing the name as valid) misled
         raise ValueError(f"{name!r} is not shipped yet in this installation ({prefix}.json is "
@@ -97,10 +102,34 @@ def agent(name: str, player: str | PlayerSpec = "simple", seed: int = 0,
         valid = ", ".join(map(repr, AGENT_NAMES))
         raise ValueError(f"unknown competitive player {name!r}; valid: {valid}, or the path "
                          "prefix of an exported high-level or Monolithic policy (PREFIX.json)")
+    kind = policy_player(prefix)
+    if kind is not None and kind != p.name:
+        raise ValueError(f"{name!r} is a {kind} player (its policy takes a {kind} rally "
+                         f"observation): play it as one (--player {kind}), not as a {p.name} "
+                         "player")
     role = _role(prefix)
     if role == "mono":
-        return Direct(resolve(str(prefix), "mono", p), name)
+        return Direct(resolve(str(prefix), "mono", p), name, p)
     return Hierarchical(resolve(str(prefix), "high", p), resolve(low, "rally_low", p), name, p)
+
+
+def compete_prefix(name: str) -> Path | None:
+    """The shipped champion ``KIND_compete`` names (``PRETRAINED/KIND_compete_high``), for any
+    player kind; None for other names."""
+    kind = name.removesuffix("_compete")
+    return PRETRAINED / f"{kind}_compete_high" if kind != name and kind in PLAYERS else None
+
+
+def policy_player(prefix: Path) -> str | None:
+    """The player kind an exported rally policy (a high level or a Monolithic player) plays:
+    the one whose rally observation is as long as the policy's input; None where no kind's
+    is (not a rally policy: loading it as one says why)."""
+    try:
+        sizes = json.loads(prefix.with_suffix(".json").read_text())["architecture"]["sizes"]
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+    kinds = [k for k, spec in PLAYERS.items() if spec.rally_obs.size == sizes[0]]
+    return kinds[0] if len(kinds) == 1 else None
 
 
 # the training stages whose policies act on the rally every decision (``Direct`` players)

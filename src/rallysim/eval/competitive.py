@@ -51,7 +51,8 @@ class Games:
 class Match:
     """N games of agent ``a`` against agent ``b``, advanced one decision at a time: the one
     loop behind ``play_games``, recorded videos and the live viewer. ``side[g]`` is (a's
-    player, b's player) in game g; ``live`` marks games still going."""
+    player, b's player) in game g; ``live`` marks games still going. The games are played by
+    the agents' kind of player (``Agent.player``), which must be the same for both."""
 
     def __init__(self, a: Agent, b: Agent, n_games: int, seed: int = 0,
                  config: RallyConfig | None = None) -> None:
@@ -60,9 +61,12 @@ class Match:
         config = config or RallyConfig(mode="competitive")
         if config.mode != "competitive":
             raise ValueError("competitive games need RallyConfig(mode='competitive')")
+        if a.player.name != b.player.name:
+            raise ValueError(f"{a.name!r} is a {a.player.name} player and {b.name!r} a "
+                             f"{b.player.name} one: a game needs two players of one kind")
         n = self.n = n_games
         self.a, self.b = a, b
-        self.task = RallyTask(n, config, seed=seed)
+        self.task = RallyTask(n, config, seed=seed, spec=a.player)
         self.task.reset(np.arange(n))
         g = np.arange(n) % 2
         self.side = np.stack([g, 1 - g], axis=1)

@@ -43,18 +43,20 @@ CELL_IN, LEFT_IN, RIGHT_IN, BOTTOM_IN, TOP_IN, DPI = 1.3, 1.9, 1.1, 1.3, 0.6, 10
 
 def crossplay(names: list[str], games: int, seed: int = 0,
               max_decisions: int = DEFAULT_MAX_DECISIONS, shuttle: str = "paper",
-              say: Say | None = None, low: str = "pretrained") -> dict[str, Any]:
-    """Every pair of ``names`` plays ``games`` games (see the module); hierarchical players
-    swing with the low level ``low``; ``say`` gets a progress line before and after each
-    pair."""
+              say: Say | None = None, low: str = "pretrained", player: str = "simple"
+              ) -> dict[str, Any]:
+    """Every pair of ``names`` plays ``games`` games (see the module), as players of the kind
+    ``player``; hierarchical players swing with the low level ``low``; ``say`` gets a progress
+    line before and after each pair."""
     names = list(names)
-    check_names(names, games, low)
+    check_names(names, games, low, player)
     played = play_pairs(names, list(combinations(names, 2)), games, seed, max_decisions,
-                        shuttle, say, low)
-    return matrix(names, played, games, seed, max_decisions, shuttle, low)
+                        shuttle, say, low, player=player)
+    return matrix(names, played, games, seed, max_decisions, shuttle, low, player=player)
 
 
-def check_names(names: list[str], games: int, low: str = "pretrained") -> None:
+def check_names(names: list[str], games: int, low: str = "pretrained",
+                player: str = "simple") -> None:
     """Refuse (ValueError) a cross-play that cannot run, before any game."""
     if len(names) < 2:
         raise ValueError(f"cross-play needs at least two players, got {len(names)}")
@@ -64,13 +66,13 @@ def check_names(names: list[str], games: int, low: str = "pretrained") -> None:
     if not isinstance(games, int) or games < 1:
         raise ValueError(f"games must be a positive integer, got {games!r}")
     for name in names:
-        agent(name, low=low)  # a bad name fails here, before any game
+        agent(name, player, low=low)  # a bad name fails here, before any game
 
 
 def play_pairs(names: list[str], pairs: list[tuple[str, str]], games: int, seed: int = 0,
                max_decisions: int = DEFAULT_MAX_DECISIONS, shuttle: str = "paper",
                say: Say | None = None, low: str = "pretrained",
-               played: dict[tuple[str, str], Games] | None = None
+               played: dict[tuple[str, str], Games] | None = None, player: str = "simple"
                ) -> dict[tuple[str, str], Games]:
     """The games of each pair ``(a, b)`` of ``pairs`` (``a`` first), every pair with the same
     ``seed``; a pair already in ``played`` (either way round) is taken from there, not played
@@ -82,8 +84,8 @@ def play_pairs(names: list[str], pairs: list[tuple[str, str]], games: int, seed:
         if say:
             say(f"[crossplay] pair {k}/{len(todo)}: {a} vs {b}, {games} games ...")
         # fresh agents per pair: each pair's games depend on the seed alone, not on the order
-        g = played[a, b] = play_games(agent(a, low=low), agent(b, low=low), games, seed,
-                                      shuttle, max_decisions)
+        g = played[a, b] = play_games(agent(a, player, low=low), agent(b, player, low=low),
+                                      games, seed, shuttle, max_decisions)
         if say:
             say(f"[crossplay] pair {k}/{len(todo)}: {a} won {g.point_win_rate:.2f} of "
                 f"{int(g.points.sum())} points, {int((g.winner >= 0).sum())}/{games} games "
@@ -93,7 +95,8 @@ def play_pairs(names: list[str], pairs: list[tuple[str, str]], games: int, seed:
 
 def matrix(names: list[str], played: dict[tuple[str, str], Games], games: int, seed: int = 0,
            max_decisions: int = DEFAULT_MAX_DECISIONS, shuttle: str = "paper",
-           low: str = "pretrained", ratings: Any = None) -> dict[str, Any]:
+           low: str = "pretrained", ratings: Any = None, player: str = "simple"
+           ) -> dict[str, Any]:
     """``crossplay``'s result from the games ``played`` (``(a, b)``: a first) between
     ``names``; a pair with no games has ``None`` cells and no entry in ``pairs``. The
     ratings are ``ratings`` (a ``Ratings``) when given, else those of all the points played
@@ -125,9 +128,9 @@ def matrix(names: list[str], played: dict[tuple[str, str], Games], games: int, s
         ratings = Ratings()
         rate_points(ratings, matches)
     return {"players": names, "games": games, "seed": seed, "max_decisions": max_decisions,
-            "shuttle": shuttle, "low": low, "point_win_rate": points, "game_win_rate": wins,
-            "mean_rally": rally, "pairs": pairs, "ratings": ratings.to_json(),
-            "table": ratings.table(names)}
+            "shuttle": shuttle, "low": low, "player": player, "point_win_rate": points,
+            "game_win_rate": wins, "mean_rally": rally, "pairs": pairs,
+            "ratings": ratings.to_json(), "table": ratings.table(names)}
 
 
 def submatrix(result: dict[str, Any], names: list[str]) -> dict[str, Any]:

@@ -3,9 +3,12 @@
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from rallysim.players.spec import PlayerSpec
 
 Policy = Callable[[np.ndarray], np.ndarray]
 """(M, observation) -> (M, action): a low-level task's policy or a Monolithic player."""
@@ -22,6 +25,7 @@ class Agent(Protocol):
     decision."""
 
     name: str
+    player: PlayerSpec  # the kind of player it acts for (both sides of a game are one kind)
 
     def start(self, n: int) -> None:
         """Fresh state for ``n`` games."""

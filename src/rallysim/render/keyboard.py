@@ -33,6 +33,8 @@ from typing import ClassVar, Protocol
 
 import numpy as np
 
+from rallysim.players import SIMPLE
+
 KEY_RIGHT, KEY_LEFT, KEY_DOWN, KEY_UP, KEY_SPACE, KEY_F, KEY_G = 262, 263, 264, 265, 32, 70, 71
 STEP_DEGREES = 15.0
 SWING_DECISIONS = 3
@@ -120,7 +122,7 @@ class KeyboardAgent:
 
     def __init__(self, keyboard: KeyboardPlayer | None = None, name: str = "you") -> None:
         self.keyboard = KeyboardPlayer() if keyboard is None else keyboard
-        self.name = name
+        self.name, self.player = name, SIMPLE
 
     def start(self, n: int) -> None:
         if n != 1:

@@ -204,7 +204,8 @@ def play_match(opponent: Agent, human: int = 0, config: RallyConfig | None = Non
             board.last = f"game {len(board.games)} to {board.result(board.games[-1])}"
             match = new_match(len(board.games))
         text = board.text(f"game {len(board.games) + 1}", int(match.task.game.hits[0]))
-        _show(viewer, scene, match.task.game, {"target_depth": held_goals(match)}, text)
+        goals = goal_markers(match.task.player, held_goals(match))
+        _show(viewer, scene, match.task.game, goals, text)
 
     try:
         _run(viewer, decision, lambda: 0 < games <= len(board.games), realtime, max_decisions,

@@ -218,8 +218,8 @@ def record_match(a: Agent, b: Agent, n_games: int = 1, seed: int = 0,
                  config: RallyConfig | None = None, width: int = 640, height: int = 360,
                  camera: str | None = None, max_decisions: int = MATCH_DECISIONS,
                  renderer: SceneRenderer | None = None) -> list[np.ndarray]:
-    """Play ``n_games`` competitive games of agent ``a`` against agent ``b`` (SIMPLE players,
-    ``config`` default ``RallyConfig(mode="competitive")``) and render every decision.
+    """Play ``n_games`` competitive games of agent ``a`` against agent ``b`` (players of their
+    kind, ``config`` default ``RallyConfig(mode="competitive")``) and render every decision.
 
     Game k is game 0 of ``Match(a, b, 1, seed + k, config)``: ``a`` plays player 0, on the left
     of the side camera's picture, and it replays as that match does. A game stops at its end or
@@ -233,7 +233,10 @@ def record_match(a: Agent, b: Agent, n_games: int = 1, seed: int = 0,
     if not isinstance(max_decisions, int) or max_decisions < 1:
         raise ValueError(f"max_decisions must be a positive integer, got {max_decisions!r}")
     own = renderer is None
-    view = SceneRenderer(2, width, height, camera) if renderer is None else renderer
+    if renderer is None:
+        view = SceneRenderer(2, width, height, camera, player=a.player.name)
+    else:
+        view = renderer
     frames: list[np.ndarray] = []
     try:
         for k in range(n_games):
@@ -257,7 +260,8 @@ def _game(match: Match, view: SceneRenderer, title: str, max_decisions: int,
         # choose inside Match.step, where the turn loop of record_rally chooses before its
         # frame
         hud = board.text(first_line, int(task.game.hits[0]))
-        return view.render(task.game, 0, hud_text=hud, target_depth=held_goals(match))
+        return view.render(task.game, 0, hud_text=hud,
+                           **goal_markers(task.player, held_goals(match)))
 
     for decisions in range(max_decisions + 1):
         frames.append(frame(f"{title}   t = {decisions * DECISION_SECONDS:.1f} s"))

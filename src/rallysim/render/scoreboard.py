@@ -4,8 +4,8 @@ each hierarchical player's held goal.
 
 Shared by the recorded videos (``rallysim.render.record.record_match``) and the live viewer
 (``rallysim.render.play.play_match``). It reads a ``rallysim.eval.competitive.Match`` only
-through its attributes (``a``, ``b``, ``side``) and the rally core's ``info``, and imports
-neither: the drawing side of ``rallysim.render`` stays free of the env modules.
+through its attributes (``a``, ``b``, ``side``, ``task.spec``) and the rally core's ``info``,
+and imports neither: the drawing side of ``rallysim.render`` stays free of the env modules.
 """
 
 from __future__ import annotations
@@ -84,13 +84,14 @@ def _hits(n: Any) -> str:
     return "1 hit" if int(n) == 1 else f"{int(n)} hits"
 
 
-def held_goals(match: Any, game: int = 0) -> list[Any]:
-    """The goal each player of game ``game`` holds, by player index: a hierarchical agent's
-    (its ``goals``), None for an agent that holds none (a Monolithic player, a person at the
-    keyboard): ``SceneRenderer``'s ``target_depth`` for SIMPLE players."""
-    goals: list[Any] = [None, None]
+def held_goals(match: Any, game: int = 0) -> np.ndarray:
+    """The goal each player of game ``game`` holds, by player index (2, *goal shape): a
+    hierarchical agent's (its ``goals``), NaN for an agent that holds none (a Monolithic
+    player, a person at the keyboard), which hides its marker
+    (``rallysim.render.markers.goal_markers``)."""
+    goals = np.full((2, *match.task.spec.goal.shape), np.nan)
     for who, agent in enumerate((match.a, match.b)):
         held = getattr(agent, "goals", None)
         if held is not None and len(held) > game:
-            goals[int(match.side[game, who])] = float(np.asarray(held[game]).reshape(-1)[0])
+            goals[int(match.side[game, who])] = held[game]
     return goals

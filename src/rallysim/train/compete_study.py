@@ -22,6 +22,9 @@ between generated-block markers, checked by a test like docs/results.md's).
 
     python -m rallysim.train.compete_study seed --seed 0 --out runs/compete_study
     python -m rallysim.train.compete_study report --out runs/compete_study
+
+``seed --player humanlike`` trains HUMAN-LIKE players (``--br-budget 0``: no best response);
+``summary`` pools such seeds without the cross-play (``compete_summary.json``).
 """
 
 from __future__ import annotations
@@ -46,15 +49,16 @@ OPPONENTS = ("scripted", "hrl")
 TARGETS = {"champion_vs_scripted": 0.8, "champion_vs_hrl": 0.8, "best_response": 0.6}
 
 
-def play_summary(a: str, b: str, games: int, seed: int, max_decisions: int
-                 ) -> dict[str, Any]:
-    """``games`` games of agent ``a`` against ``b``: ``summarise``'s rates with 95 %
-    intervals, and per game the points ``a`` won and the points played (``per_game``, what
-    ``pooled_rate`` pools)."""
+def play_summary(a: str, b: str, games: int, seed: int, max_decisions: int,
+                 player: str = "simple") -> dict[str, Any]:
+    """``games`` games of agent ``a`` against ``b`` (players of the kind ``player``):
+    ``summarise``'s rates with 95 % intervals, and per game the points ``a`` won and the
+    points played (``per_game``, what ``pooled_rate`` pools)."""
     from rallysim.eval.agents import agent
     from rallysim.eval.competitive import play_games, summarise
 
-    played = play_games(agent(a), agent(b), games, seed, max_decisions=max_decisions)
+    played = play_games(agent(a, player), agent(b, player), games, seed,
+                        max_decisions=max_decisions)
     out = summarise(played, seed=seed)
     out["per_game"] = {"won": played.points[:, 0].tolist(),
                        "points": played.points.sum(axis=1).tolist()}
@@ -62,31 +66,36 @@ def play_summary(a: str, b: str, games: int, seed: int, max_decisions: int
 
 
 def run_seed(seed: int, out: Path, budget: int, br_budget: int, games: int,
-             max_decisions: int = 20_000, overrides: dict[str, Any] | None = None) -> Path:
-    """One seed's champion, its games, its ratings and its best response (see the module);
-    returns the seed's JSON."""
+             max_decisions: int = 20_000, overrides: dict[str, Any] | None = None,
+             player: str = "simple") -> Path:
+    """One seed's champion, its games, its ratings and its best response (see the module;
+    ``br_budget`` 0: none), for players of the kind ``player``; returns the seed's JSON."""
     from rallysim.train.config import load_config
     from rallysim.train.runner import train_stage
 
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
     league_dir = out / f"league_seed{seed}"
-    base = {"seed": seed, "league.max_decisions": max_decisions, **(overrides or {})}
+    base = {"seed": seed, "player": player, "league.max_decisions": max_decisions,
+            **(overrides or {})}
     train_stage(load_config("compete", overrides={**base, "budget": budget}), league_dir)
     champion = str(league_dir / "policy")
     league_s = time.perf_counter() - t0
-    versus = {name: play_summary(champion, name, games, EVAL_SEED + i, max_decisions)
+    versus = {name: play_summary(champion, name, games, EVAL_SEED + i, max_decisions, player)
               for i, name in enumerate(OPPONENTS)}
     ratings = [{"turns": h["turns"], "rating": h["rating"]} for h in league_history(league_dir)]
     t1 = time.perf_counter()
-    br_dir = out / f"best_response_seed{seed}"
-    train_stage(load_config("compete", overrides={
-        **base, "budget": br_budget, "league.opponents": champion}), br_dir)
+    best_response = None
+    if br_budget:
+        br_dir = out / f"best_response_seed{seed}"
+        train_stage(load_config("compete", overrides={
+            **base, "budget": br_budget, "league.opponents": champion}), br_dir)
     br_s = time.perf_counter() - t1
-    best_response = play_summary(str(br_dir / "policy"), champion, games, EVAL_SEED + 10,
-                                 max_decisions)
+    if br_budget:
+        best_response = play_summary(str(br_dir / "policy"), champion, games, EVAL_SEED + 10,
+                                     max_decisions, player)
     values = [r["rating"] for r in ratings if r["rating"] is not None]
-    doc = {"seed": seed, "budget": budget, "br_budget": br_budget, "games": games,
+    doc = {"seed": seed, "player": player, "budget": budget, "br_budget": br_budget, "games": games,
            "max_decisions": max_decisions, "overrides": overrides or {},
            "champion": champion, "versus": versus, "ratings": ratings,
            "ratings_monotonic": bool(all(b >= a for a, b in itertools.pairwise(values))),
@@ -101,10 +110,23 @@ def run_seed(seed: int, out: Path, budget: int, br_budget: int, games: int,
 def league_history(run: Path) -> list[dict[str, Any]]:
     """A league run's snapshots as its newest checkpoint records them, oldest first: their
     ``turns`` (units of the stage's budget) and ``rating`` (None when unrated)."""
+    return [{"turns": h["turns"], "rating": h.get("rating")}
+            for h in league_state(run)["history"]]
+
+
+def league_state(run: Path) -> dict[str, Any]:
+    """What a league run's newest checkpoint holds of its league (``League.state``)."""
     from rallysim.train import checkpoint as ckpt
 
-    state = json.loads(ckpt.latest_checkpoint(run).read_text())["stage_state"]
-    return [{"turns": h["turns"], "rating": h.get("rating")} for h in state["history"]]
+    return json.loads(ckpt.latest_checkpoint(run).read_text())["stage_state"]
+
+
+def load_seeds(out: Path) -> list[dict[str, Any]]:
+    """The seeds' JSON in ``out`` (``seed*.json``), by seed; at least one."""
+    seeds = [json.loads(p.read_text()) for p in sorted(out.glob("seed*.json"))]
+    if not seeds:
+        raise FileNotFoundError(f"no seed*.json in {out}: run the seed step first")
+    return seeds
 
 
 def pooled_rate(per_seed: list[dict[str, list[int]]], n_boot: int = 2000,
@@ -200,9 +222,13 @@ def report(out: Path, games: int, max_decisions: int = 20_000,
     from rallysim.eval.crossplay import heatmap, matrix, submatrix
     from rallysim.eval.ratings import REFERENCE_LADDER
 
-    seeds = [json.loads(p.read_text()) for p in sorted(out.glob("seed*.json"))]
-    if not seeds:
-        raise FileNotFoundError(f"no seed*.json in {out}: run the seed step first")
+    seeds = load_seeds(out)
+    odd = [s["seed"] for s in seeds
+           if s.get("player", "simple") != "simple" or s["best_response"] is None]
+    if odd:
+        raise ValueError(f"seed(s) {odd} in {out} are not SIMPLE or have no best response: the "
+                         "report rates and cross-plays SIMPLE players against the SIMPLE "
+                         "ladder; pool them with the summary step")
     pooled = {f"champion_vs_{name}": pooled_rate([s["versus"][name]["per_game"]
                                                   for s in seeds]) for name in OPPONENTS}
     pooled["best_response"] = pooled_rate([s["best_response"]["per_game"] for s in seeds])
@@ -264,6 +290,86 @@ def report(out: Path, games: int, max_decisions: int = 20_000,
         _rating_figure(rows, ladder_json, figures / "compete_ratings.png")
         _exploitability_figure(seeds, pooled, figures / "compete_exploitability.png")
     return result
+
+
+SUMMARY = "compete_summary"
+
+
+def summary(out: Path) -> dict[str, Any]:
+    """Pool the seeds' JSON in ``out`` without ``report``'s cross-play and re-rating (for
+    players whose games are slow, such as HUMAN-LIKE's): each champion's point-win rate
+    against ``OPPONENTS`` per seed and pooled (seeds, then games), the snapshots' ratings as
+    the league logged them; writes ``out/compete_summary.json``."""
+    seeds = load_seeds(out)
+    first = seeds[0]
+    for key in ("player", "budget", "br_budget", "games", "max_decisions", "overrides"):
+        differ = sorted({json.dumps(s.get(key)) for s in seeds})
+        if len(differ) > 1:
+            raise ValueError(f"the seeds in {out} differ in {key} ({', '.join(differ)}): pool "
+                             "seeds of one study only")
+    result = {
+        "kind": SUMMARY, "player": first.get("player", "simple"), "opponents": list(OPPONENTS),
+        "settings": {k: first[k] for k in ("budget", "br_budget", "games", "max_decisions",
+                                           "overrides")},
+        "pooled": {n: pooled_rate([s["versus"][n]["per_game"] for s in seeds])
+                   for n in OPPONENTS},
+        "seeds": [{"seed": s["seed"], "champion": s["champion"], "ratings": s["ratings"],
+                   "ratings_monotonic": s["ratings_monotonic"], "wall_s": s["wall_s"],
+                   **{f"vs_{n}": s["versus"][n]["point_win_rate"] for n in OPPONENTS},
+                   **{f"rally_vs_{n}": s["versus"][n]["mean_rally"] for n in OPPONENTS}}
+                  for s in seeds],
+    }
+    result["ladder"] = league_ladder(out / f"league_seed{first['seed']}")
+    pooled = result["pooled"]
+    result["checks"] = {
+        **{f"champion_wins_80pct_vs_{n}_pooled":
+           pooled[n]["value"] >= TARGETS[f"champion_vs_{n}"] for n in OPPONENTS},
+        f"ratings_monotonic_in_2_of_{len(seeds)}": sum(s["ratings_monotonic"] for s in seeds)
+        >= 2}
+    (out / f"{SUMMARY}.json").write_text(json.dumps(result, indent=1))
+    return result
+
+
+def league_ladder(run: Path) -> list[dict[str, Any]]:
+    """The reference ladder as a league run calibrated it (its newest checkpoint's ratings,
+    the snapshots left out), best first: ``Ratings.table`` rows."""
+    from rallysim.eval.ratings import Ratings
+
+    ratings = Ratings.from_json(league_state(run)["ratings"])
+    return ratings.table([n for n in ratings.players if not n.startswith("snapshot_")])
+
+
+def render_summary(result: dict[str, Any]) -> str:
+    """``summary``'s tables for the docs."""
+    st, opponents = result["settings"], result["opponents"]
+    br = (f"best response {st['br_budget']:,} turns" if st["br_budget"]
+          else "no best response")
+    lines = [
+        f"{len(result['seeds'])} training seeds of the `{result['player']}` player; league budget "
+        f"{st['budget']:,} turns, {br}; {st['games']} evaluation games per pair; games "
+        f"stopped after {st['max_decisions']:,} decisions. Point-win rate of each champion "
+        "(mean rally in hits per point):", "",
+        "| seed | " + " | ".join(f"champion vs {n}" for n in opponents)
+        + " | snapshot ratings rise | wall (min) |",
+        "|---|" + "---|" * (len(opponents) + 2)]
+    for s in result["seeds"]:
+        cells = [f"{ci_cell(s[f'vs_{n}'])} ({_rate(s[f'rally_vs_{n}']['value'], 1)})"
+                 for n in opponents]
+        lines.append(f"| {s['seed']} | " + " | ".join(cells)
+                     + f" | {'yes' if s['ratings_monotonic'] else 'no'} | "
+                     f"{s['wall_s']['total'] / 60:.1f} |")
+    lines.append("| pooled | " + " | ".join(ci_cell(result["pooled"][n]) for n in opponents)
+                 + " | | |")
+    ladder = ", ".join(f"`{r['name']}` {r['ordinal']:.2f}" for r in result["ladder"])
+    lines += ["", f"Snapshot ratings (OpenSkill ordinal against the league's calibrated ladder, "
+              f"each point a match, as the league logged them; the ladder: {ladder}), oldest "
+              "first:", ""]
+    for s in result["seeds"]:
+        values = [r["rating"] for r in s["ratings"] if r["rating"] is not None]
+        lines.append(f"- seed {s['seed']}: {', '.join(f'{v:.2f}' for v in values)}")
+    lines += ["", "Checks: " + ", ".join(f"`{k}` **{'yes' if v else 'no'}**"
+                                         for k, v in result["checks"].items()) + ".", ""]
+    return "\n".join(lines)
 
 
 def falls(snaps: list[dict[str, Any]]) -> list[dict[str, float]]:
@@ -370,8 +476,8 @@ def ci_cell(e: dict[str, float] | None) -> str:
     return interval_cell(None if e is None or e.get("value") is None else e, 3)
 
 
-def _rate(value: float | None) -> str:
-    return "—" if value is None else f"{value:.3f}"
+def _rate(value: float | None, digits: int = 3) -> str:
+    return "—" if value is None else f"{value:.{digits}f}"
 
 
 def render(result: dict[str, Any]) -> str:
@@ -453,6 +559,9 @@ def main(argv: list[str] | None = None) -> int:
     one = sub.add_parser("seed", help="one seed's champion, ratings and best response")
     one.add_argument("--seed", type=int, required=True)
     rep = sub.add_parser("report", help="pool the seeds, cross-play, figures, JSON")
+    light = sub.add_parser("summary", help="pool the seeds' games and logged ratings only "
+                                           "(no cross-play), JSON")
+    light.add_argument("--out", type=Path, required=True)
     rep.add_argument("--figures", type=Path, default=None)
     rep.add_argument("--crossplay-games", type=int, default=16,
                      help="games per pair of the ladder's calibration, the snapshots' ratings "
@@ -463,15 +572,18 @@ def main(argv: list[str] | None = None) -> int:
         p.add_argument("--max-decisions", type=int, default=20_000)
     one.add_argument("--budget", type=int, default=200_000)
     one.add_argument("--br-budget", type=int, default=230_000,
-                     help="best response turns (about 5M decisions at ~22 per turn)")
+                     help="best response turns (about 5M decisions at ~22 per turn; 0: none)")
+    one.add_argument("--player", choices=("simple", "humanlike"), default="simple")
     one.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE")
     args = parser.parse_args(argv)
     if args.step == "seed":
         from rallysim.train.config import parse_overrides
 
         path = run_seed(args.seed, args.out, args.budget, args.br_budget, args.games,
-                        args.max_decisions, parse_overrides(args.set))
+                        args.max_decisions, parse_overrides(args.set), args.player)
         print(f"wrote {path}")
+    elif args.step == "summary":
+        print(render_summary(summary(args.out)))
     else:
         result = report(args.out, args.games, args.max_decisions, args.figures,
                         args.crossplay_games)

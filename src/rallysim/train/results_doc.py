@@ -40,26 +40,28 @@ def render(results: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
+# what renders a JSON of each kind besides a reproduction's (no kind): docs/competitive.md's
+# studies, docs/rl-alone.md's
+_RENDERERS = {
+    "compete_study": "rallysim.train.compete_study:render",
+    "compete_summary": "rallysim.train.compete_study:render_summary",
+    "compete_flat": "rallysim.train.compete_flat_study:render",
+    "low_curves": "rallysim.train.low_curves_study:render",
+    "reference_returns": "rallysim.train.reference_returns:render",
+}
+
+
 def _renderer(kind: str | None) -> Callable[[dict[str, Any]], str]:
-    """What renders a JSON of this kind: a reproduction's (no kind), docs/competitive.md's
-    studies or docs/rl-alone.md's."""
-    if kind == "compete_study":
-        from rallysim.train.compete_study import render as render_study
+    """What renders a JSON of this kind (``_RENDERERS``; no kind: a reproduction's)."""
+    if kind is None:
+        return render
+    import importlib
 
-        return render_study
-    if kind == "compete_flat":
-        from rallysim.train.compete_flat_study import render as render_flat
-
-        return render_flat
-    if kind == "low_curves":
-        from rallysim.train.low_curves_study import render as render_curves
-
-        return render_curves
-    if kind == "reference_returns":
-        from rallysim.train.reference_returns import render as render_reference
-
-        return render_reference
-    return render
+    if kind not in _RENDERERS:
+        raise ValueError(f"no renderer for JSON of kind {kind!r}; known: "
+                         f"{', '.join(_RENDERERS)} (or none: a reproduction's)")
+    module, name = _RENDERERS[kind].split(":")
+    return getattr(importlib.import_module(module), name)
 
 
 def blocks(doc: str) -> list[str]:

@@ -3,7 +3,8 @@ win points (badminton scoring), over a frozen low level, by self-play against a 
 own frozen snapshots (``rallysim.train.league``); one SB3 step is one of its turns.
 
 Judged by its point-win rate against ``league.eval_opponents`` (default: the scripted
-controller and the cooperative HRL agent). SIMPLE only.
+controller and the cooperative HRL agent). SIMPLE and HUMAN-LIKE (``--player humanlike``:
+``configs/compete_humanlike.yaml``, whose goal is the 3-D racket velocity).
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ class CompeteStage(Stage):
     name: ClassVar[str] = "compete"
     unit: ClassVar[str] = "turns"
     title: ClassVar[str] = "compete"
-    players: ClassVar[tuple[str, ...]] = ("simple",)
+    players: ClassVar[tuple[str, ...]] = ("simple", "humanlike")
     score_key: ClassVar[str] = "point_win_rate"
 
     def make_env(self, config: TrainConfig) -> NativeVecEnv:
@@ -40,10 +41,12 @@ class CompeteStage(Stage):
         """The learner's seat in ``config.ppo.n_envs`` games: it plays turns over the frozen
         low level."""
         from rallysim.envs.compete_turn import CompeteTurnVectorEnv
+        from rallysim.players import get_player
 
         return CompeteTurnVectorEnv(
             config.ppo.n_envs, opponents, low_level=config.low_policy, seed=config.seed,
-            max_decisions=config.league.max_decisions, shuttle=config.shuttle)
+            max_decisions=config.league.max_decisions, shuttle=config.shuttle,
+            player_spec=get_player(config.player))
 
     def env_options(self, config: TrainConfig) -> dict[str, Any]:
         return {"shuttle": config.shuttle, "low_policy": config.low_policy}
