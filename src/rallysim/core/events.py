@@ -62,7 +62,7 @@ class EventRows:
         self._blank = Events.empty(n, p)
         largest = max(a.nbytes for a in vars(self._blank).values())
         self.rows = self.block_bytes // largest
-        self._blocks: list[np.ndarray] = []
+        self._blocks: list[tuple[np.ndarray, ...]] = []  # one decision's arrays each
         self._next = self.rows  # no block yet
 
     def __getstate__(self) -> dict[str, Any]:
@@ -74,9 +74,10 @@ class EventRows:
         if self.rows < self.min_rows:
             return self._blank.copy()
         if self._next == self.rows:
-            self._blocks = [np.repeat(a[None], self.rows, axis=0)
-                            for a in vars(self._blank).values()]
+            blocks = [np.repeat(a[None], self.rows, axis=0) for a in vars(self._blank).values()]
+            # each decision's arrays, as rows of the blocks, made at once
+            self._blocks = list(zip(*(list(block) for block in blocks), strict=True))
             self._next = 0
         i = self._next
         self._next = i + 1
-        return Events(*[block[i] for block in self._blocks])
+        return Events(*self._blocks[i])

@@ -19,6 +19,7 @@ from rallysim.core.bodies import PlayerBodies, SimpleBodies
 from rallysim.core.court import Court
 from rallysim.core.events import EventRows, Events
 from rallysim.core.lanes import ARRAYS, SCALARS, ArrayLanes, Ops, ScalarLanes
+from rallysim.core.one_game import OneSimpleGame
 from rallysim.core.serve import MachineServe, Serve
 from rallysim.core.shuttle import RADIUS, ShuttleState, make_shuttle_model
 from rallysim.core.state import RallyState
@@ -100,6 +101,8 @@ class Game:
         self._views: dict[str, np.ndarray] | None = None
         self._vectors: dict[str, np.ndarray] | None = None
         self._array_lanes: ArrayLanes | None = None
+        # one game of one SIMPLE player with the paper flight: its physics steps fused
+        self._one = OneSimpleGame(self) if OneSimpleGame.fits(self) else None
 
     # -- the rally's state (RallyState), as the game's own arrays --------------------------------
     @property
@@ -280,6 +283,9 @@ class Game:
             g.reload(self.lane_views(), self.vector_views())
 
     def _run(self, steps: int) -> None:
+        if self._one is not None:
+            self._one.run(self, steps)
+            return
         ops = self.ops
         g = self._lanes(ops)
         for _ in range(steps):
@@ -305,7 +311,6 @@ class Game:
     def _step_lanes(self, g: Any, ops: Ops) -> None:
         """One physics step: the bodies move, the shuttle flies, then one swept test for
         everything (the faces in their frames, the net, the floor) decides what happened."""
-        P = self.n_players
         live = g.in_play & g.active
         held = not ops.all(live)
         if held:
@@ -322,7 +327,13 @@ class Game:
             self._shape(g, own[0], live)
         if held and not ops.any(live):  # nothing in play: what the tests find would be ignored
             return
+        self._judge(g, ops, q0, live)
 
+    def _judge(self, g: Any, ops: Ops, q0: Any, live: Any) -> None:
+        """The end of a physics step (``_step_lanes``): the swept test of the points from
+        ``q0`` (``_points`` at the step's start) to the current ones decides the hits, net
+        touches and landings of the ``live`` games, which the rules then apply."""
+        P = self.n_players
         tested = self._swept(q0, self._points(g, ops), ops)
         if tested is None:  # one game, apart from every box
             return

@@ -116,9 +116,10 @@ class ArrayOps:
         a[...] = value
 
     @staticmethod
-    def scaled(lanes: list, shape: tuple[int, ...], centre: tuple, scale: tuple) -> np.ndarray:
+    def scaled(lanes: list, shape: tuple[int, ...], centre: Any, scale: Any) -> np.ndarray:
         """Lanes (each broadcastable to ``shape``; a constant may be the number 0.0) as the
-        columns of a ``(*shape, k)`` array, each mapped by (lane - centre) / scale."""
+        columns of a ``(*shape, k)`` array, each mapped by (lane - centre) / scale (``centre``
+        and ``scale``: k numbers, best a float64 array: a tuple is converted at every call)."""
         out = np.zeros((*shape, len(lanes)))
         for k, lane in enumerate(lanes):
             if isinstance(lane, np.ndarray) or lane != 0.0:
@@ -128,13 +129,17 @@ class ArrayOps:
         return out
 
     @staticmethod
-    def observations(lanes: list, shape: tuple[int, ...], centre: tuple, scale: tuple
+    def observations(lanes: list, shape: tuple[int, ...], centre: Any, scale: Any
                      ) -> np.ndarray:
         """``scaled``, clipped into [-1, 1] (np.clip's result), as float32."""
-        out = ArrayOps.scaled(lanes, shape, centre, scale)
-        np.maximum(out, -1.0, out=out)
-        np.minimum(out, 1.0, out=out)
-        return out.astype(np.float32)
+        return _clipped32(ArrayOps.scaled(lanes, shape, centre, scale))
+
+
+def _clipped32(out: np.ndarray) -> np.ndarray:
+    """``out`` clipped into [-1, 1] in place (np.clip's result), as float32."""
+    np.maximum(out, -1.0, out=out)
+    np.minimum(out, 1.0, out=out)
+    return out.astype(np.float32)
 
 
 def _where(c: bool, a: Any, b: Any) -> Any:
@@ -204,18 +209,17 @@ def _put(a: np.ndarray, value: Any) -> None:
     a[0, 0] = value
 
 
-def _scaled(lanes: list, shape: tuple[int, ...], centre: tuple, scale: tuple) -> np.ndarray:
-    return np.array([(x - c) / s for x, c, s in zip(lanes, centre, scale, strict=True)]
-                    ).reshape(*shape, len(lanes))
+def _scaled(lanes: list, shape: tuple[int, ...], centre: Any, scale: Any) -> np.ndarray:
+    # the numbers as one array: each element's (x - c) / s, as on floats, in four NumPy calls
+    out = np.array(lanes, dtype=np.float64)
+    out -= centre
+    out /= scale
+    return out.reshape(*shape, len(lanes))
 
 
-def _observations(lanes: list, shape: tuple[int, ...], centre: tuple, scale: tuple
+def _observations(lanes: list, shape: tuple[int, ...], centre: Any, scale: Any
                   ) -> np.ndarray:
-    scaled = [(x - c) / s for x, c, s in zip(lanes, centre, scale, strict=True)]
-    clipped = [v if -1.0 <= v <= 1.0 else (-1.0 if v < -1.0 else 1.0) for v in scaled]
-    # np.clip's result, then astype's rounding to float32 (np.array(..., np.float32) rounds
-    # the same but converts number by number, slower)
-    return np.array(clipped).astype(np.float32).reshape(*shape, len(lanes))
+    return _clipped32(_scaled(lanes, shape, centre, scale))
 
 
 class ScalarOps:

@@ -43,10 +43,12 @@ def normalise_depth(depth: np.ndarray) -> np.ndarray:
 
 # Each observed value's affine map, (raw - centre) / scale. Subtracting 0 and dividing by 1 are
 # exact, so one map over all 16 values gives the numbers of scaling each kind on its own.
-PLAYER_OBS_CENTRE = (*POSITION_CENTRE.tolist(), 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-                     *POSITION_CENTRE.tolist(), 0.0, 0.0, 0.0)
-PLAYER_OBS_SCALE = (*POSITION_SCALE.tolist(), 1.0, 1.0, 1.0, 1.0, *(FACE_SPEED_SCALE,) * 3,
-                    *POSITION_SCALE.tolist(), *(SHUTTLE_SPEED_SCALE,) * 3)
+PLAYER_OBS_CENTRE = np.array((*POSITION_CENTRE.tolist(), 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+                              *POSITION_CENTRE.tolist(), 0.0, 0.0, 0.0))
+PLAYER_OBS_SCALE = np.array((*POSITION_SCALE.tolist(), 1.0, 1.0, 1.0, 1.0,
+                             *(FACE_SPEED_SCALE,) * 3, *POSITION_SCALE.tolist(),
+                             *(SHUTTLE_SPEED_SCALE,) * 3))
+PLAYER_OBS_CENTRE.flags.writeable = PLAYER_OBS_SCALE.flags.writeable = False
 
 
 def player_observations(game: Game) -> np.ndarray:

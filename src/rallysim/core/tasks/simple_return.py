@@ -23,8 +23,9 @@ from rallysim.core.validation import positive_int, read_options, real_array
 
 OBS_SIZE = PLAYER_OBS_SIZE + 1
 # the observation's affine maps: the player's, then normalise_depth's for the goal
-OBS_CENTRE = (*PLAYER_OBS_CENTRE, 0.5 * sum(TARGET_DEPTH_RANGE))
-OBS_SCALE = (*PLAYER_OBS_SCALE, 0.5 * (TARGET_DEPTH_RANGE[1] - TARGET_DEPTH_RANGE[0]))
+OBS_CENTRE = np.append(PLAYER_OBS_CENTRE, 0.5 * sum(TARGET_DEPTH_RANGE))
+OBS_SCALE = np.append(PLAYER_OBS_SCALE, 0.5 * (TARGET_DEPTH_RANGE[1] - TARGET_DEPTH_RANGE[0]))
+OBS_CENTRE.flags.writeable = OBS_SCALE.flags.writeable = False
 ACTION_SIZE = 3
 MAX_DECISIONS = 1000
 R_HIT = 1.0

@@ -1,0 +1,143 @@
+"""The fused physics steps of one SIMPLE game (``rallysim.core.one_game``) are the lanes code's,
+bit for bit: the same env stepped with and without them gives the same state after every
+decision, and the same observations and rewards as env 0 of a batch, over play that hits,
+misses, touches the net, lands in and out and hits the arm's stops."""
+
+from __future__ import annotations
+
+import pickle
+
+import numpy as np
+import pytest
+
+from rallysim.core.bodies import SimpleBodies
+from rallysim.core.game import Game
+from rallysim.core.humanlike import HumanLikeBodies
+from rallysim.core.one_game import OneSimpleGame
+from rallysim.envs.simple_return_v0 import SimpleReturnEnv, SimpleReturnVectorEnv
+from rallysim.policies.scripted import ScriptedController
+
+
+def _state(env: SimpleReturnEnv) -> list[np.ndarray]:
+    """Every array of the game's state and of its last decision's events."""
+    game = env.task.game
+    b, sh, st, d = game.bodies, game.shuttle, game.state, game.bodies.data
+    return [d.qpos, d.qvel, d.ctrl, d.mocap_pos, b.base_x, b._theta0, b.base_moved, b.target,
+            b.torque_limit, sh.motion, sh.shot_time, sh.shot_speed, game._q, game._gap,
+            *vars(st).values(), *vars(game.events).values()]
+
+
+def _same_bits(x, y) -> bool:
+    x, y = np.asarray(x), np.asarray(y)
+    return x.dtype == y.dtype and x.shape == y.shape and x.tobytes() == y.tobytes()
+
+
+def _actions(kind: str, rng: np.random.Generator, obs: np.ndarray,
+             controller: ScriptedController) -> np.ndarray:
+    if kind == "scripted":  # hits and aimed landings
+        a = controller.act_return(obs[None])[0]
+        return np.clip(a + rng.normal(0.0, 0.3, 3), -1.0, 1.0).astype(np.float32)
+    if kind == "extreme":  # full-force swings into the arm's stops, the base at its ends
+        return rng.choice([-1.0, 1.0], 3).astype(np.float32)
+    return rng.uniform(-1.0, 1.0, 3).astype(np.float32)
+
+
+def _counting(game: Game) -> dict[str, int]:
+    """Count the physics steps the fused path runs and those the lanes code runs."""
+    counts = {"fused": 0, "lanes": 0}
+    free, lanes = game._one._free_steps, game._step_lanes
+
+    def fused_steps(g, steps):
+        run = free(g, steps)
+        counts["fused"] += run
+        return run
+
+    def lanes_step(g, ops):
+        counts["lanes"] += 1
+        lanes(g, ops)
+
+    game._one._free_steps, game._step_lanes = fused_steps, lanes_step
+    return counts
+
+
+@pytest.mark.parametrize("kind", ["random", "scripted", "extreme"])
+def test_fused_steps_replay_the_lanes_code_and_a_batch(kind):
+    fused, lanes = SimpleReturnEnv(), SimpleReturnEnv()
+    batch = SimpleReturnVectorEnv(2, autoreset_mode="same_step")
+    assert isinstance(fused.task.game._one, OneSimpleGame)
+    lanes.task.game._one = None
+    counts = _counting(fused.task.game)
+    rng, controller = np.random.default_rng(3), ScriptedController()
+    seen = {"hit": 0, "landed_in": 0, "net_touch": 0, "stopped": 0, "episodes": 0}
+    obs_f, _ = fused.reset(seed=11)
+    obs_l, _ = lanes.reset(seed=11)
+    obs_b, _ = batch.reset(seed=11)
+    assert _same_bits(obs_f, obs_l) and _same_bits(obs_f, obs_b[0])
+    for step in range(1500):
+        a = _actions(kind, rng, obs_f, controller)
+        obs_f, r_f, term_f, trunc_f, info_f = fused.step(a)
+        obs_l, r_l, term_l, trunc_l, info_l = lanes.step(a)
+        obs_b, r_b, term_b, trunc_b, _ = batch.step(np.stack([a, -a]))
+        assert _same_bits(obs_f, obs_l) and _same_bits(r_f, r_l), step
+        assert (term_f, trunc_f) == (term_l, trunc_l)
+        assert info_f.keys() == info_l.keys()
+        for key in info_f:
+            assert _same_bits(info_f[key], info_l[key]), (step, key)
+        for x, y in zip(_state(fused), _state(lanes), strict=True):
+            assert _same_bits(x, y), step
+        # env 0 of a batch seeded alike: the same reward and ends, and the same observation
+        # (after an end, the batch's is the next episode's first: compared after the reset)
+        assert _same_bits(np.float64(r_f), r_b[0])
+        assert (term_f, trunc_f) == (term_b[0], trunc_b[0])
+        seen["hit"] += info_f["hit"]
+        seen["landed_in"] += bool(info_f.get("landed_in", False))
+        seen["net_touch"] += info_f["net_touch"]
+        seen["stopped"] += abs(fused.task.game.bodies.theta.item()) == fused.task.game.bodies.limit
+        if term_f or trunc_f:
+            seen["episodes"] += 1
+            obs_f, _ = fused.reset()
+            obs_l, _ = lanes.reset()
+            assert _same_bits(obs_f, obs_l)
+        assert _same_bits(obs_f, obs_b[0]), step
+    # the play reached every kind of judged step the fused path hands over
+    assert seen["episodes"] >= 20 and seen["hit"] >= 10, seen
+    if kind == "scripted":
+        assert seen["landed_in"] >= 10, seen
+    if kind == "extreme":
+        assert seen["stopped"] >= 100, seen
+    if kind == "random":
+        assert seen["net_touch"] >= 1, seen
+    # and the fused path ran most steps (the lanes code: those after a landing)
+    assert counts["fused"] + counts["lanes"] == 5 * 1500
+    assert counts["fused"] > 0.7 * 5 * 1500, counts
+
+
+def test_a_copy_mid_episode_keeps_replaying():
+    env = SimpleReturnEnv(incoming="mixed")
+    rng = np.random.default_rng(0)
+    env.reset(seed=4)
+    for _ in range(7):
+        env.step(rng.uniform(-1, 1, 3).astype(np.float32))
+    copy = pickle.loads(pickle.dumps(env))
+    assert isinstance(copy.task.game._one, OneSimpleGame)
+    for _ in range(300):
+        a = rng.uniform(-1, 1, 3).astype(np.float32)
+        one, two = env.step(a), copy.step(a)
+        assert _same_bits(one[0], two[0]) and one[1:4] == two[1:4]
+        if one[2] or one[3]:
+            assert _same_bits(env.reset()[0], copy.reset()[0])
+
+
+def test_fused_steps_only_where_they_fit():
+    assert isinstance(Game(1, 1)._one, OneSimpleGame)
+    assert isinstance(SimpleReturnVectorEnv(1).task.game._one, OneSimpleGame)
+    assert Game(2, 1)._one is None  # a batch: array lanes
+    assert Game(1, 2)._one is None  # two players
+    assert Game(1, 1, shuttle="aero")._one is None  # another flight model
+    assert Game(1, 1, shuttle="paper-alg1")._one is None
+    assert Game(1, 1, bodies=HumanLikeBodies(1, 1))._one is None  # another player model
+
+    class Bodies(SimpleBodies):  # a player model built on SIMPLE's may change its motion
+        pass
+
+    assert Game(1, 1, bodies=Bodies(1, 1))._one is None
