@@ -285,7 +285,11 @@ class Game:
     def _run(self, steps: int) -> None:
         if self._one is not None:
             self._one.run(self, steps)
-            return
+        else:
+            self._run_lanes(steps)
+
+    def _run_lanes(self, steps: int) -> None:
+        """``steps`` physics steps on the lanes of ``ops``, from and to the arrays."""
         ops = self.ops
         g = self._lanes(ops)
         for _ in range(steps):

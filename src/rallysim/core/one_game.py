@@ -56,10 +56,7 @@ class OneSimpleGame:
         while done < steps:
             if not (state.in_play.item() and active.item()):
                 # out of play until the next reset: the rest of the decision on the lanes
-                g = game._lanes(SCALARS)
-                for _ in range(steps - done):
-                    game._step_lanes(g, SCALARS)
-                game._store(g)
+                game._run_lanes(steps - done)
                 return
             done += self._free_steps(game, steps - done)
 
@@ -83,10 +80,11 @@ class OneSimpleGame:
         qx, qy, qz = game._q[0, 0].tolist()
         shot_time, gap = sh.shot_time.item(), game._gap.item()
         good, bad = ev.approach_good.item(), ev.approach_bad.item()
+        face, world = (qx, qy, qz), (px, py, pz)  # the points the box test starts from
         run, judged = 0, False
         while run < steps:
             run += 1
-            q0 = ((qx, qy, qz), (px, py, pz))
+            face0, world0 = face, world
             # SimpleBodies.step_lanes
             theta0 = theta
             x = base_x + base_step
@@ -129,7 +127,8 @@ class OneSimpleGame:
                 good += closer
                 bad += todo ^ closer
                 gap = new_gap
-            if not apart(q0[0], (qx, qy, qz), q0[1], (px, py, pz)):
+            face, world = (qx, qy, qz), (px, py, pz)
+            if not apart(face0, face, world0, world):
                 judged = True
                 break
         bodies.base_x[0, 0], bodies._theta0[0, 0], bodies.base_moved[0, 0] = base_x, theta0, moved
@@ -139,6 +138,6 @@ class OneSimpleGame:
         ev.approach_good[0, 0], ev.approach_bad[0, 0] = good, bad
         if judged:
             g = game._lanes(SCALARS)
-            game._judge(g, SCALARS, q0, True)
+            game._judge(g, SCALARS, (face0, world0), True)
             game._store(g)
         return run
