@@ -17,7 +17,11 @@ ours
 ours, single env
     ``gym.make("RallySim/SimpleReturn-v0")`` and ``gym.make("RallySim/HumanLikeReturn-v0")``
     (Gymnasium's wrappers included) with pre-generated uniform random actions, reset when an
-    episode ends: the way one environment is used without a vector env.
+    episode ends: the way one environment is used without a vector env. The SIMPLE one runs
+    its physics steps compiled where Numba is installed (the ``fast`` extra), and once more as
+    Python (``rallysim.core.one_game.KERNEL = "python"``). The single envs and the single
+    pendulum below are timed in turn, one repeat of each per round, so that a slower minute of
+    a shared machine slows them all.
 (a1) single-world raw ceiling
     ``mujoco.mj_step`` on ``build_simple_world(1, 1)``, the MJCF model of one SIMPLE player, in
     a tight Python loop and through ``mujoco.rollout`` (a C loop: no Python per step). The
@@ -69,6 +73,7 @@ import gymnasium as gym
 import mujoco
 import numpy as np
 
+from rallysim.core import one_game
 from rallysim.core.bodies import build_simple_world
 from rallysim.core.game import PHYSICS_STEPS_PER_DECISION
 from rallysim.envs.simple_return_v0 import SimpleReturnVectorEnv
@@ -97,6 +102,7 @@ TARGET_SINGLE_HUMANLIKE_DECISIONS = 2_500.0  # gym.make("RallySim/HumanLikeRetur
 SIMPLE_ID, HUMANLIKE_ID, PENDULUM_ID = ("RallySim/SimpleReturn-v0", "RallySim/HumanLikeReturn-v0",
                                        "InvertedPendulum-v5")
 TARGET_PEAK_MB = 300.0
+KERNEL_ENV = "RALLYSIM_KERNEL"
 TARGET_GROWTH_MB = 5.0
 
 
@@ -156,9 +162,19 @@ def _rate_for(step: Stepper, chunk: int, seconds: float) -> float:
 
 def calls_per_second(step: Stepper, budget: Budget) -> float:
     """Best calls/s over ``budget.repeats`` timed repeats, after a warm-up."""
-    chunk = _calibrate(step)
-    _rate_for(step, chunk, budget.warmup_s)
-    return max(_rate_for(step, chunk, budget.repeat_s) for _ in range(budget.repeats))
+    return interleaved_calls_per_second([step], budget)[0]
+
+
+def interleaved_calls_per_second(steps: list[Stepper], budget: Budget) -> list[float]:
+    """``calls_per_second`` of each of ``steps``, their repeats taken in turn (round r times
+    each once)."""
+    chunks = [_calibrate(step) for step in steps]
+    for step, chunk in zip(steps, chunks, strict=True):
+        _rate_for(step, chunk, budget.warmup_s)
+    rates = [[_rate_for(step, chunk, budget.repeat_s) for step, chunk in zip(steps, chunks,
+                                                                           strict=True)]
+             for _ in range(budget.repeats)]
+    return [max(column) for column in zip(*rates, strict=True)]
 
 
 # -- ours --------------------------------------------------------------------------------------
@@ -195,10 +211,16 @@ def ours_scripted_stepper(n: int) -> Stepper:
     return step
 
 
-def single_stepper(env_id: str) -> tuple[Stepper, gym.Env]:
+def single_stepper(env_id: str, kernel: str | None = None) -> tuple[Stepper, gym.Env]:
     """``gym.make(env_id)`` stepped with pre-drawn uniform random actions, reset at each
-    episode's end (as a training or evaluation loop over one environment does)."""
-    env = gym.make(env_id)
+    episode's end (as a training or evaluation loop over one environment does); ``kernel``:
+    ``one_game.KERNEL`` while it is made."""
+    default = one_game.KERNEL
+    one_game.KERNEL = kernel or default
+    try:
+        env = gym.make(env_id)
+    finally:
+        one_game.KERNEL = default
     env.reset(seed=0)
     space = env.action_space
     batches = np.random.default_rng(0).uniform(space.low, space.high,
@@ -214,21 +236,44 @@ def single_stepper(env_id: str) -> tuple[Stepper, gym.Env]:
     return step, env
 
 
-def bench_single(key: str, label: str, env_id: str, budget: Budget,
-                 physics_per_decision: int | None = None) -> Row:
-    """A single-env row; physics steps per decision are the env's ``frame_skip`` if not given."""
-    try:
-        stubbed = _stub_render_modules()
-        step, env = single_stepper(env_id)
-    except Exception as exc:  # a missing dependency, a Gymnasium without the env, ...
-        return Row(key, label, 1, None, None, None,
-                   f"cannot be created: {type(exc).__name__}: {exc}")
-    per = physics_per_decision or int(env.unwrapped.frame_skip)
-    calls = calls_per_second(step, budget)
-    note = f"{per} physics steps per decision"
-    if stubbed:
-        note += f"; placeholder {', '.join(stubbed)} (render-only imports)"
-    return Row(key, label, 1, calls, calls, calls * per, note)
+@dataclass(frozen=True)
+class Single:
+    """A single-env row to measure: ``physics_per_decision`` None: the env's ``frame_skip``."""
+
+    key: str
+    label: str
+    env_id: str
+    physics_per_decision: int | None = None
+    kernel: str | None = None
+
+
+def bench_singles(singles: list[Single], budget: Budget) -> list[Row]:
+    """The single-env rows, timed in turn (``interleaved_calls_per_second``)."""
+    stubbed = _stub_render_modules()
+    made, rows = [], {}
+    for single in singles:
+        try:
+            step, env = single_stepper(single.env_id, single.kernel)
+        except Exception as exc:  # a missing dependency, a Gymnasium without the env, ...
+            rows[single.key] = Row(single.key, single.label, 1, None, None, None,
+                                   f"cannot be created: {type(exc).__name__}: {exc}")
+            continue
+        made.append((single, step, single.physics_per_decision or int(env.unwrapped.frame_skip)))
+    rates = interleaved_calls_per_second([step for _, step, _ in made], budget)
+    for (single, _, per), calls in zip(made, rates, strict=True):
+        note = f"{per} physics steps per decision"
+        if single.env_id == PENDULUM_ID and stubbed:
+            note += f"; placeholder {', '.join(stubbed)} (render-only imports)"
+        if single.env_id == SIMPLE_ID:
+            note += f"; {_kernel_made(single.kernel)} physics steps"
+        rows[single.key] = Row(single.key, single.label, 1, calls, calls, calls * per, note)
+    return [rows[single.key] for single in singles]
+
+
+def _kernel_made(kernel: str | None) -> str:
+    """What ``one_game.KERNEL`` = ``kernel`` gives: "compiled" or "Python"."""
+    compiled = (kernel or one_game.KERNEL) != "python" and one_game.compiled_free_steps()
+    return "compiled" if compiled else "Python"
 
 
 # -- (a) raw MuJoCo ----------------------------------------------------------------------------
@@ -565,14 +610,16 @@ def throughput_rows(budget: Budget) -> list[Row]:
         rows += bench_raw(f"a2_{n}", "(a2) raw mj_step, N worlds", build_simple_world(n, 1), n,
                           budget)
     rows += [bench_pendulum(n, budget) for n in NS]
-    rows += [
-        bench_single("single_simple", f"rallysim gym.make({SIMPLE_ID!r}), random actions",
-                     SIMPLE_ID, budget, PHYSICS_STEPS_PER_DECISION),
-        bench_single("single_humanlike", f"rallysim gym.make({HUMANLIKE_ID!r}), random actions",
-                     HUMANLIKE_ID, budget, PHYSICS_STEPS_PER_DECISION),
-        bench_single("single_pendulum", f"(b) gym.make({PENDULUM_ID!r}), random actions",
-                     PENDULUM_ID, budget),
-    ]
+    rows += bench_singles([
+        Single("single_simple", f"rallysim gym.make({SIMPLE_ID!r}), random actions",
+               SIMPLE_ID, PHYSICS_STEPS_PER_DECISION),
+        Single("single_simple_python", f"the same, {KERNEL_ENV}=python", SIMPLE_ID,
+               PHYSICS_STEPS_PER_DECISION, "python"),
+        Single("single_humanlike", f"rallysim gym.make({HUMANLIKE_ID!r}), random actions",
+               HUMANLIKE_ID, PHYSICS_STEPS_PER_DECISION),
+        Single("single_pendulum", f"(b) gym.make({PENDULUM_ID!r}), random actions",
+               PENDULUM_ID),
+    ], budget)
     return rows
 
 

@@ -1,7 +1,8 @@
-"""The fused physics steps of one SIMPLE game (``rallysim.core.one_game``) are the lanes code's,
-bit for bit: the same env stepped with and without them gives the same state after every
-decision, and the same observations and rewards as env 0 of a batch, over play that hits,
-misses, touches the net, lands in and out and hits the arm's stops."""
+"""The fused physics steps of one SIMPLE game (``rallysim.core.one_game``), as Python and
+compiled by Numba, are the lanes code's, bit for bit: the same env stepped with and without them
+gives the same state after every decision, and the same observations and rewards as env 0 of a
+batch, over play that hits, misses, touches the net, lands in and out and hits the arm's
+stops."""
 
 from __future__ import annotations
 
@@ -10,6 +11,7 @@ import pickle
 import numpy as np
 import pytest
 
+from rallysim.core import one_game
 from rallysim.core.bodies import SimpleBodies
 from rallysim.core.game import Game
 from rallysim.core.humanlike import HumanLikeBodies
@@ -42,6 +44,21 @@ def _actions(kind: str, rng: np.random.Generator, obs: np.ndarray,
     return rng.uniform(-1.0, 1.0, 3).astype(np.float32)
 
 
+# the compiled kernel where it can be had (CI installs the ``fast`` extra), else a visible skip
+COMPILED = pytest.param("compiled", marks=pytest.mark.skipif(
+    one_game.compiled_free_steps() is None,
+    reason="the compiled kernel needs Numba (the fast extra) and NumPy's sine and cosine "
+           "equal to the C library's"))
+KERNELS = ["python", COMPILED]
+
+
+def _with_kernel(env: SimpleReturnEnv, kernel: str) -> SimpleReturnEnv:
+    game = env.task.game
+    game._one = OneSimpleGame(game, kernel)
+    assert game._one.kernel == kernel
+    return env
+
+
 def _counting(game: Game) -> dict[str, int]:
     """Count the physics steps the fused path runs and those the lanes code runs."""
     counts = {"fused": 0, "lanes": 0}
@@ -60,11 +77,11 @@ def _counting(game: Game) -> dict[str, int]:
     return counts
 
 
+@pytest.mark.parametrize("kernel", KERNELS)
 @pytest.mark.parametrize("kind", ["random", "scripted", "extreme"])
-def test_fused_steps_replay_the_lanes_code_and_a_batch(kind):
-    fused, lanes = SimpleReturnEnv(), SimpleReturnEnv()
+def test_fused_steps_replay_the_lanes_code_and_a_batch(kind, kernel):
+    fused, lanes = _with_kernel(SimpleReturnEnv(), kernel), SimpleReturnEnv()
     batch = SimpleReturnVectorEnv(2, autoreset_mode="same_step")
-    assert isinstance(fused.task.game._one, OneSimpleGame)
     lanes.task.game._one = None
     counts = _counting(fused.task.game)
     rng, controller = np.random.default_rng(3), ScriptedController()
@@ -112,14 +129,16 @@ def test_fused_steps_replay_the_lanes_code_and_a_batch(kind):
     assert counts["fused"] > 0.7 * 5 * 1500, counts
 
 
-def test_a_copy_mid_episode_keeps_replaying():
-    env = SimpleReturnEnv(incoming="mixed")
+@pytest.mark.parametrize("kernel", KERNELS)
+def test_a_copy_mid_episode_keeps_replaying(kernel):
+    env = _with_kernel(SimpleReturnEnv(incoming="mixed"), kernel)
     rng = np.random.default_rng(0)
     env.reset(seed=4)
     for _ in range(7):
         env.step(rng.uniform(-1, 1, 3).astype(np.float32))
     copy = pickle.loads(pickle.dumps(env))
-    assert isinstance(copy.task.game._one, OneSimpleGame)
+    assert copy.task.game._one.kernel == kernel  # and its own MuJoCo data's address
+    assert copy.task.game.bodies.data._address != env.task.game.bodies.data._address
     for _ in range(300):
         a = rng.uniform(-1, 1, 3).astype(np.float32)
         one, two = env.step(a), copy.step(a)
@@ -141,3 +160,18 @@ def test_fused_steps_only_where_they_fit():
         pass
 
     assert Game(1, 1, bodies=Bodies(1, 1))._one is None
+
+
+def test_the_kernel_chosen():
+    auto = "python" if one_game.compiled_free_steps() is None else "compiled"
+    assert OneSimpleGame(Game(1, 1), "auto").kernel == auto
+    assert OneSimpleGame(Game(1, 1), "python").kernel == "python"
+    with pytest.raises(ValueError, match="unknown kernel 'numba'; valid: 'auto', 'python'"):
+        OneSimpleGame(Game(1, 1), "numba")
+
+
+def test_the_compiled_kernel_refused_without_numba(monkeypatch):
+    monkeypatch.setattr(one_game, "compiled_free_steps", lambda: None)
+    assert OneSimpleGame(Game(1, 1), "auto").kernel == "python"  # falls back
+    with pytest.raises(RuntimeError, match=r"needs Numba \(pip install 'rallysim\[fast\]'\)"):
+        OneSimpleGame(Game(1, 1), "compiled")

@@ -116,6 +116,12 @@ class ArrayOps:
         a[...] = value
 
     @staticmethod
+    def tick(a: np.ndarray) -> np.ndarray:
+        """Add 1 to a per-game integer counter (N,) in place; the counter as a lane."""
+        a += 1
+        return a
+
+    @staticmethod
     def scaled(lanes: list, shape: tuple[int, ...], centre: Any, scale: Any) -> np.ndarray:
         """Lanes (each broadcastable to ``shape``; a constant may be the number 0.0) as the
         columns of a ``(*shape, k)`` array, each mapped by (lane - centre) / scale (``centre``
@@ -209,6 +215,13 @@ def _put(a: np.ndarray, value: Any) -> None:
     a[0, 0] = value
 
 
+def _tick(a: np.ndarray) -> int:
+    # (``a += 1`` on one element costs several times more: NumPy's casting checks)
+    count = a.item() + 1
+    a[0] = count
+    return count
+
+
 def _scaled(lanes: list, shape: tuple[int, ...], centre: Any, scale: Any) -> np.ndarray:
     # the numbers as one array: each element's (x - c) / s, as on floats, in four NumPy calls
     out = np.array(lanes, dtype=np.float64)
@@ -246,6 +259,7 @@ class ScalarOps:
     vector = staticmethod(_vector)
     columns = staticmethod(_columns)
     put = staticmethod(_put)
+    tick = staticmethod(_tick)
     scaled = staticmethod(_scaled)
     observations = staticmethod(_observations)
 

@@ -95,7 +95,7 @@ class HumanLikeReturnTask:
         game, ops = self.game, self.game.ops
         read = ops.read
         ev = game.step(actions[:, None, :])
-        self.elapsed += 1
+        elapsed = ops.tick(self.elapsed)
         hit, landed = read(ev.hit[:, 0]), read(ev.landed)
         if ops.any(hit):
             reward, values = self._hit_values(ev.hit[:, 0], ev.hit_velocity[:, 0])
@@ -106,7 +106,7 @@ class HumanLikeReturnTask:
                       "reward_velocity": 0.0}
         landing = (np.where(ev.landed[:, None], ev.land_point, np.nan) if ops.any(landed)
                    else np.full((self.n, 3), np.nan))
-        truncated = ops.logical_not(landed) & (read(self.elapsed) >= self.max_decisions)
+        truncated = ops.logical_not(landed) & (elapsed >= self.max_decisions)
         return reward, landed, truncated, {
             "hit": hit, **values, "net_touch": read(ev.net_touch), "landed": landed,
             "landing_point": landing, "target_velocity": self.goal}

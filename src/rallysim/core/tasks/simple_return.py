@@ -139,7 +139,7 @@ class ReturnTask:
         game, ops = self.game, self.game.ops
         read, read0 = ops.read, ops.read0
         ev = game.step(actions[:, None, :])
-        self.elapsed += 1
+        elapsed = ops.tick(self.elapsed)
         hit, landed, goal = read0(ev.hit), read(ev.landed), read(self.goal)
         shaping = SHAPING_GOOD * read0(ev.approach_good) + SHAPING_BAD * read0(ev.approach_bad)
         reward = shaping + R_HIT * hit
@@ -156,7 +156,7 @@ class ReturnTask:
             reward = reward + landing
         # (without a landing there is nothing to score: adding 0.0 would not change the
         # reward, which never is -0.0)
-        truncated = ops.logical_not(landed) & (read(self.elapsed) >= self.max_decisions)
+        truncated = ops.logical_not(landed) & (elapsed >= self.max_decisions)
         info = {"hit": hit, "racket_speed": read0(ev.hit_speed), "net_touch": read(ev.net_touch),
                 "landed": landed, "landing_point": ev.land_point, "landing_depth": depth,
                 "landing_error": error, "landed_in": landed_in, "target_depth": goal,
