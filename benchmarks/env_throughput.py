@@ -102,7 +102,6 @@ TARGET_SINGLE_HUMANLIKE_DECISIONS = 2_500.0  # gym.make("RallySim/HumanLikeRetur
 SIMPLE_ID, HUMANLIKE_ID, PENDULUM_ID = ("RallySim/SimpleReturn-v0", "RallySim/HumanLikeReturn-v0",
                                        "InvertedPendulum-v5")
 TARGET_PEAK_MB = 300.0
-KERNEL_ENV = "RALLYSIM_KERNEL"
 TARGET_GROWTH_MB = 5.0
 
 
@@ -249,31 +248,27 @@ class Single:
 
 def bench_singles(singles: list[Single], budget: Budget) -> list[Row]:
     """The single-env rows, timed in turn (``interleaved_calls_per_second``)."""
-    stubbed = _stub_render_modules()
     made, rows = [], {}
     for single in singles:
         try:
+            stubbed = _stub_render_modules()
             step, env = single_stepper(single.env_id, single.kernel)
         except Exception as exc:  # a missing dependency, a Gymnasium without the env, ...
             rows[single.key] = Row(single.key, single.label, 1, None, None, None,
                                    f"cannot be created: {type(exc).__name__}: {exc}")
             continue
-        made.append((single, step, single.physics_per_decision or int(env.unwrapped.frame_skip)))
-    rates = interleaved_calls_per_second([step for _, step, _ in made], budget)
-    for (single, _, per), calls in zip(made, rates, strict=True):
+        per = single.physics_per_decision or int(env.unwrapped.frame_skip)
         note = f"{per} physics steps per decision"
-        if single.env_id == PENDULUM_ID and stubbed:
+        if stubbed:
             note += f"; placeholder {', '.join(stubbed)} (render-only imports)"
-        if single.env_id == SIMPLE_ID:
-            note += f"; {_kernel_made(single.kernel)} physics steps"
+        one = getattr(getattr(getattr(env.unwrapped, "task", None), "game", None), "_one", None)
+        if one is not None:  # a single SIMPLE game: which kernel ran its physics steps
+            note += f"; {one.kernel} physics steps"
+        made.append((single, step, per, note))
+    rates = interleaved_calls_per_second([step for _, step, _, _ in made], budget)
+    for (single, _, per, note), calls in zip(made, rates, strict=True):
         rows[single.key] = Row(single.key, single.label, 1, calls, calls, calls * per, note)
     return [rows[single.key] for single in singles]
-
-
-def _kernel_made(kernel: str | None) -> str:
-    """What ``one_game.KERNEL`` = ``kernel`` gives: "compiled" or "Python"."""
-    compiled = (kernel or one_game.KERNEL) != "python" and one_game.compiled_free_steps()
-    return "compiled" if compiled else "Python"
 
 
 # -- (a) raw MuJoCo ----------------------------------------------------------------------------
@@ -613,7 +608,7 @@ def throughput_rows(budget: Budget) -> list[Row]:
     rows += bench_singles([
         Single("single_simple", f"rallysim gym.make({SIMPLE_ID!r}), random actions",
                SIMPLE_ID, PHYSICS_STEPS_PER_DECISION),
-        Single("single_simple_python", f"the same, {KERNEL_ENV}=python", SIMPLE_ID,
+        Single("single_simple_python", f"the same, {one_game.KERNEL_VARIABLE}=python", SIMPLE_ID,
                PHYSICS_STEPS_PER_DECISION, "python"),
         Single("single_humanlike", f"rallysim gym.make({HUMANLIKE_ID!r}), random actions",
                HUMANLIKE_ID, PHYSICS_STEPS_PER_DECISION),

@@ -6,7 +6,10 @@ stops."""
 
 from __future__ import annotations
 
+import os
 import pickle
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -44,11 +47,11 @@ def _actions(kind: str, rng: np.random.Generator, obs: np.ndarray,
     return rng.uniform(-1.0, 1.0, 3).astype(np.float32)
 
 
-# the compiled kernel where it can be had (CI installs the ``fast`` extra), else a visible skip
+# the compiled kernel where it can be had, else a visible skip; CI requires it
+# (RALLYSIM_REQUIRE_COMPILED=1 in .ci/run: then a missing one fails instead)
 COMPILED = pytest.param("compiled", marks=pytest.mark.skipif(
-    one_game.compiled_free_steps() is None,
-    reason="the compiled kernel needs Numba (the fast extra) and NumPy's sine and cosine "
-           "equal to the C library's"))
+    one_game.compiled_free_steps() is None and not os.environ.get("RALLYSIM_REQUIRE_COMPILED"),
+    reason=f"no compiled kernel: {one_game.Compiled.why_not}"))
 KERNELS = ["python", COMPILED]
 
 
@@ -129,6 +132,17 @@ def test_fused_steps_replay_the_lanes_code_and_a_batch(kind, kernel):
     assert counts["fused"] > 0.7 * 5 * 1500, counts
 
 
+def _replay_alike(env: SimpleReturnEnv, copy: SimpleReturnEnv, rng: np.random.Generator,
+                  decisions: int) -> None:
+    """Step both with the same random actions: the same observations, rewards and ends."""
+    for _ in range(decisions):
+        a = rng.uniform(-1, 1, 3).astype(np.float32)
+        one, two = env.step(a), copy.step(a)
+        assert _same_bits(one[0], two[0]) and one[1:4] == two[1:4]
+        if one[2] or one[3]:
+            assert _same_bits(env.reset()[0], copy.reset()[0])
+
+
 @pytest.mark.parametrize("kernel", KERNELS)
 def test_a_copy_mid_episode_keeps_replaying(kernel):
     env = _with_kernel(SimpleReturnEnv(incoming="mixed"), kernel)
@@ -139,12 +153,7 @@ def test_a_copy_mid_episode_keeps_replaying(kernel):
     copy = pickle.loads(pickle.dumps(env))
     assert copy.task.game._one.kernel == kernel  # and its own MuJoCo data's address
     assert copy.task.game.bodies.data._address != env.task.game.bodies.data._address
-    for _ in range(300):
-        a = rng.uniform(-1, 1, 3).astype(np.float32)
-        one, two = env.step(a), copy.step(a)
-        assert _same_bits(one[0], two[0]) and one[1:4] == two[1:4]
-        if one[2] or one[3]:
-            assert _same_bits(env.reset()[0], copy.reset()[0])
+    _replay_alike(env, copy, rng, 300)
 
 
 def test_fused_steps_only_where_they_fit():
@@ -162,16 +171,66 @@ def test_fused_steps_only_where_they_fit():
     assert Game(1, 1, bodies=Bodies(1, 1))._one is None
 
 
-def test_the_kernel_chosen():
+def test_the_kernel_chosen(monkeypatch):
     auto = "python" if one_game.compiled_free_steps() is None else "compiled"
     assert OneSimpleGame(Game(1, 1), "auto").kernel == auto
     assert OneSimpleGame(Game(1, 1), "python").kernel == "python"
-    with pytest.raises(ValueError, match="unknown kernel 'numba'; valid: 'auto', 'python'"):
+    monkeypatch.setattr(one_game, "KERNEL", "python")  # the default, where none is given
+    assert Game(1, 1)._one.kernel == "python"
+    with pytest.raises(ValueError, match=r"unknown kernel 'numba' \(one_game.KERNEL or "
+                                         r"RALLYSIM_KERNEL\); valid: 'auto', 'python'"):
         OneSimpleGame(Game(1, 1), "numba")
 
 
-def test_the_compiled_kernel_refused_without_numba(monkeypatch):
+def test_the_kernel_variable_sets_the_default():
+    code = "from rallysim.core import one_game; print(one_game.KERNEL)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         env={**os.environ, "RALLYSIM_KERNEL": "python"}, check=True)
+    assert out.stdout.strip() == "python"
+
+
+def test_the_compiled_kernel_refused_where_it_cannot_run(monkeypatch):
     monkeypatch.setattr(one_game, "compiled_free_steps", lambda: None)
+    monkeypatch.setattr(one_game.Compiled, "why_not", "Numba is not installed")
     assert OneSimpleGame(Game(1, 1), "auto").kernel == "python"  # falls back
-    with pytest.raises(RuntimeError, match=r"needs Numba \(pip install 'rallysim\[fast\]'\)"):
+    with pytest.raises(RuntimeError, match="compiled kernel cannot run here: Numba is not "):
         OneSimpleGame(Game(1, 1), "compiled")
+
+
+@pytest.mark.skipif(one_game.compiled_free_steps() is None,
+                    reason=f"no compiled kernel: {one_game.Compiled.why_not}")
+def test_a_copy_taken_where_nothing_compiles_runs_python_alike(monkeypatch):
+    env = SimpleReturnEnv()
+    env.task.game._one = OneSimpleGame(env.task.game, "auto")
+    assert env.task.game._one.kernel == "compiled"
+    rng = np.random.default_rng(5)
+    env.reset(seed=2)
+    for _ in range(5):
+        env.step(rng.uniform(-1, 1, 3).astype(np.float32))
+    data = pickle.dumps(env)
+    monkeypatch.setattr(one_game, "compiled_free_steps", lambda: None)  # "another machine"
+    copy = pickle.loads(data)
+    assert copy.task.game._one.kernel == "python"
+    monkeypatch.undo()
+    assert env.task.game._one.kernel == "compiled"
+    _replay_alike(env, copy, rng, 400)
+
+
+@pytest.mark.parametrize("kernel", KERNELS)
+def test_fused_steps_without_shaping(kernel):
+    fused, lanes = _with_kernel(SimpleReturnEnv(), kernel), SimpleReturnEnv()
+    lanes.task.game._one = None
+    for env in (fused, lanes):
+        env.task.game.shaping = False
+        env.reset(seed=8)
+    rng = np.random.default_rng(8)
+    for step in range(500):
+        a = rng.uniform(-1, 1, 3).astype(np.float32)
+        one, two = fused.step(a), lanes.step(a)
+        assert _same_bits(one[0], two[0]) and one[1:4] == two[1:4], step
+        for x, y in zip(_state(fused), _state(lanes), strict=True):
+            assert _same_bits(x, y), step
+        assert fused.task.game.events.approach_bad.item() == 0  # nothing counted
+        if one[2] or one[3]:
+            fused.reset()
+            lanes.reset()

@@ -398,9 +398,8 @@ class Game:
     def _apart(self, f0: tuple, f1: tuple, w0: tuple, w1: tuple) -> bool:
         """Whether one game's shuttle stayed apart (``rules.apart``) from the floor, the net
         and the face during the step (``f``: in the face's frame, ``w``: in the world)."""
-        top = self._floor_top
-        return (w0[2] > top and w1[2] > top and rules.apart(w0, w1, *self._net_apart)
-                and rules.apart(f0, f1, *self._face_apart))
+        return rules.step_apart(f0, f1, w0, w1, self._floor_top, *self._net_apart,
+                                *self._face_apart)
 
     def _shape(self, g: Any, own_x: Any, live: Any) -> None:
         """Count the physics steps each base closed in on the shuttle (x distance), before the

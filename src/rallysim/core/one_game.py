@@ -11,19 +11,19 @@ for the steps in which the shuttle is in play and stays apart from every box
 (``SimpleBodies.step_lanes``, ``PaperShuttle.fly``, ``Game._observe``, ``Game._shape`` and the
 floor, net and face tests of ``Game._apart``) is restated here, once, in ``_free_steps_with``.
 
-That function runs as Python, or compiled by Numba (the ``fast`` extra) where NumPy's float64
-sine and cosine give the same bits as the C library's that compiled code calls (NumPy's own
-SIMD versions, used on some CPUs, may differ in the last bit): compiled, MuJoCo's ``mj_step``
-is called from the loop directly, with no Python between physics steps. ``KERNEL`` (or the
-environment variable ``RALLYSIM_KERNEL``: ``auto``, ``python``, ``compiled``) chooses.
-``tests/test_one_game.py`` holds both, the lanes code and a batch's env 0 bit-identical state by
-state.
+That function runs as Python, or compiled by Numba (the ``fast`` extra; Linux, where MuJoCo's
+library is ``libmujoco.so``) where the compiled sine and cosine give NumPy's float64 bits (NumPy's
+own SIMD versions, used on some CPUs, may differ from the C library's in the last bit): compiled,
+MuJoCo's ``mj_step`` is called from the loop directly, with no Python between physics steps.
+``KERNEL`` (or the environment variable ``RALLYSIM_KERNEL``: ``auto``, ``python``, ``compiled``)
+chooses; ``auto`` takes the compiled kernel where it can be had and Python elsewhere, with the
+same results. ``tests/test_one_game.py`` holds both, the lanes code and a batch's env 0
+bit-identical state by state.
 """
 
 from __future__ import annotations
 
 import ctypes
-import functools
 import glob
 import os
 from collections.abc import Callable
@@ -38,13 +38,15 @@ from rallysim.core.lanes import SCALARS, _cos, _sin
 from rallysim.core.shuttle import GRAVITY, PaperShuttle
 
 KERNELS = ("auto", "python", "compiled")
-KERNEL = os.environ.get("RALLYSIM_KERNEL", "auto")  # which ``_free_steps_with`` runs (above)
+KERNEL_VARIABLE = "RALLYSIM_KERNEL"
+KERNEL = os.environ.get(KERNEL_VARIABLE, "auto")  # which ``_free_steps_with`` runs (above)
 
 
-def _free_steps_with(mj_step: Callable, sin: Callable, cos: Callable, apart: Callable
+def _free_steps_with(mj_step: Callable, sin: Callable, cos: Callable, step_apart: Callable
                      ) -> Callable:
     """The free physics steps of one game, calling these four functions (the Python ones, or
-    their compiled counterparts: the source is the same).
+    their compiled counterparts: the source is the same; ``step_apart``: ``rules.step_apart``,
+    the box test of ``Game._apart``).
 
     ``free_steps(model, data, <the state's arrays>, k, steps, shaping)`` runs up to ``steps``
     steps from and to the arrays until one needs judging; ``k`` holds ``OneSimpleGame``'s
@@ -117,9 +119,8 @@ def _free_steps_with(mj_step: Callable, sin: Callable, cos: Callable, apart: Cal
                 bad += todo ^ closer
                 gap = new_gap
             face, world = (qx, qy, qz), (px, py, pz)
-            # Game._apart: above the floor, apart from the net and from the face
-            if not (world0[2] > top and pz > top and apart(world0, world, net_lo, net_hi)
-                    and apart(face0, face, face_lo, face_hi)):
+            if not step_apart(face0, face, world0, world, top, net_lo, net_hi, face_lo,
+                              face_hi):
                 judged = True
                 break
         base_x_a[0, 0], theta0_a[0, 0], moved_a[0, 0] = base_x, theta0, moved
@@ -133,23 +134,58 @@ def _free_steps_with(mj_step: Callable, sin: Callable, cos: Callable, apart: Cal
     return free_steps
 
 
-PYTHON_FREE_STEPS = _free_steps_with(mujoco.mj_step, _sin, _cos, rules.apart)
+PYTHON_FREE_STEPS = _free_steps_with(mujoco.mj_step, _sin, _cos, rules.step_apart)
 
 
-@functools.cache
+class Compiled:
+    """The compiled kernel of this process, made on first use: ``free_steps`` (None where it
+    cannot be had) and ``why_not`` (why, for errors and test skips)."""
+
+    free_steps: Callable | None = None
+    why_not: str = "not yet tried"
+    tried = False
+
+
 def compiled_free_steps() -> Callable | None:
-    """``_free_steps_with`` compiled by Numba, calling MuJoCo's C ``mj_step`` (its arguments:
-    the model's and data's addresses); None where Numba or MuJoCo's library is missing, or where
-    the compiled sine or cosine differ from NumPy's on a probe of angles (then the compiled
-    steps would not replay a batch bit for bit)."""
+    """``_free_steps_with`` compiled by Numba, calling MuJoCo's C ``mj_step`` with the model's
+    and data's addresses; None where Numba or MuJoCo's library is missing, or where the compiled
+    sine or cosine differ from NumPy's on a probe of angles (then the compiled steps would not
+    replay a batch bit for bit), or where compiling fails (``Compiled.why_not`` says which)."""
+    if not Compiled.tried:
+        Compiled.tried = True
+        try:
+            Compiled.free_steps, Compiled.why_not = _compile(), ""
+        except _Unavailable as exc:
+            Compiled.why_not = str(exc)
+        except Exception as exc:  # a Numba that cannot compile it: Python, with the same results
+            Compiled.why_not = f"compiling failed: {type(exc).__name__}: {exc}"
+    return Compiled.free_steps
+
+
+class _Unavailable(Exception):
+    pass
+
+
+def _compile() -> Callable:
     try:
         import numba
     except ImportError:
-        return None
-    libraries = glob.glob(os.path.join(os.path.dirname(mujoco.__file__), "libmujoco.so*"))
-    if not libraries:  # (another platform's library name: not compiled there)
-        return None
-    step = ctypes.CDLL(libraries[0]).mj_step
+        raise _Unavailable("Numba is not installed (pip install 'rallysim[fast]')") from None
+    # the C library of the bindings' own version: a struct layout of another would corrupt
+    # memory without an error
+    version = mujoco.mj_versionString()
+    libraries = sorted(glob.glob(os.path.join(os.path.dirname(mujoco.__file__), "libmujoco.so*")))
+    for path in libraries:
+        lib = ctypes.CDLL(path)
+        lib.mj_versionString.restype = ctypes.c_char_p
+        if lib.mj_versionString().decode() == version:
+            break
+    else:
+        raise _Unavailable(f"no libmujoco.so of MuJoCo {version} beside its Python bindings "
+                           f"(found {[os.path.basename(p) for p in libraries]})")
+    # (MuJoCo's errors inside this mj_step reach its default handler, which ends the process,
+    # not the bindings' FatalError; one SIMPLE game's finite, clipped actions raise none)
+    step = lib.mj_step
     step.argtypes, step.restype = [ctypes.c_void_p, ctypes.c_void_p], None
     sin = numba.njit(lambda x: np.sin(x))
     cos = numba.njit(lambda x: np.cos(x))
@@ -165,8 +201,19 @@ def compiled_free_steps() -> Callable | None:
     angles = np.concatenate([np.linspace(-4.0, 4.0, 200_001),
                              np.random.default_rng(0).uniform(-40.0, 40.0, 100_000)])
     if sines(angles).tobytes() != np.stack([np.sin(angles), np.cos(angles)]).tobytes():
-        return None
-    return numba.njit(_free_steps_with(step, sin, cos, numba.njit(rules.apart)))
+        raise _Unavailable("Numba's sine or cosine differ from NumPy's on this machine")
+    step_apart = numba.njit(rules.step_apart_with(numba.njit(rules.apart)))
+    free_steps = numba.njit(_free_steps_with(step, sin, cos, step_apart))
+    _dry_run(free_steps)
+    return free_steps
+
+
+def _dry_run(free_steps: Callable) -> None:
+    """Compile ``free_steps`` now, for arrays of the types a game's are, by a call that runs no
+    physics step (so a failure shows here, where the Python kernel can take over)."""
+    f, b, i = np.zeros((1, 1)), np.zeros((1, 1), bool), np.zeros((1, 1), np.int64)
+    free_steps(0, 0, f, np.zeros((1, 1, 3)), f, f, f, f, b, f, f, f, f, np.zeros((6, 1)),
+               np.zeros((1, 3, 3)), np.zeros(1), f, i, i, b, np.zeros(25), 0, True)
 
 
 class OneSimpleGame:
@@ -183,12 +230,12 @@ class OneSimpleGame:
     def __init__(self, game: Any, kernel: str | None = None) -> None:
         kernel = KERNEL if kernel is None else kernel
         if kernel not in KERNELS:
-            raise ValueError(f"unknown kernel {kernel!r}; valid: {', '.join(map(repr, KERNELS))}")
-        if kernel == "compiled" and compiled_free_steps() is None:
-            raise RuntimeError("the compiled kernel needs Numba (pip install 'rallysim[fast]') "
-                               "and a NumPy whose sine and cosine are the C library's")
-        # the kernel's name, not the function: a copy of the game (pickle) takes it along
-        self.compiled = kernel != "python" and compiled_free_steps() is not None
+            raise ValueError(f"unknown kernel {kernel!r} (one_game.KERNEL or {KERNEL_VARIABLE});"
+                             f" valid: {', '.join(map(repr, KERNELS))}")
+        # the name asked for, resolved in each process: a copy taken elsewhere (pickle) runs
+        # the compiled kernel where it can be had there
+        self.asked = kernel
+        self._free_steps_function()
         b, flight = game.bodies, game.flight
         dt, (lo, hi) = flight.dt, b.base_range
         net_lo, net_hi = game._net_apart
@@ -200,9 +247,20 @@ class OneSimpleGame:
                   game._floor_top, *net_lo, *net_hi, *face_lo, *face_hi)
         self.k_array = np.array(self.k)
 
+    def _free_steps_function(self) -> Callable | None:
+        """The compiled kernel if it runs here, else None (Python); ``RuntimeError`` where the
+        compiled one was asked for and cannot be had."""
+        if self.asked == "python":
+            return None
+        compiled = compiled_free_steps()
+        if compiled is None and self.asked == "compiled":
+            raise RuntimeError(f"the compiled kernel cannot run here: {Compiled.why_not}")
+        return compiled
+
     @property
     def kernel(self) -> str:
-        return "compiled" if self.compiled else "python"
+        """The kernel that runs in this process: "compiled" or "python"."""
+        return "python" if self._free_steps_function() is None else "compiled"
 
     def run(self, game: Any, steps: int) -> None:
         """``steps`` physics steps of ``game``, from and to its arrays."""
@@ -219,11 +277,11 @@ class OneSimpleGame:
         """Up to ``steps`` steps of a live game, until one needs judging (judged here too);
         the number of steps run."""
         b, sh, ev = game.bodies, game.shuttle, game.events
-        if self.compiled:
-            free_steps, k = compiled_free_steps(), self.k_array
-            model, data = b.model._address, b.data._address
-        else:
+        free_steps = self._free_steps_function()
+        if free_steps is None:
             free_steps, k, model, data = PYTHON_FREE_STEPS, self.k, b.model, b.data
+        else:
+            k, model, data = self.k_array, b.model._address, b.data._address
         run, judged, face0, world0 = free_steps(
             model, data, b.torque, b.mocap, b.theta, b.omega, b.base_x, b._theta0,
             b.base_moved, b._base_step, b.target, b._neg_limit, b.torque_limit, sh.motion,

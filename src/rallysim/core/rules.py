@@ -11,7 +11,9 @@ them).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -243,6 +245,24 @@ def apart(q0: tuple, q1: tuple, lo: list, hi: list) -> bool:
     (x0, y0, z0), (x1, y1, z1), (lx, ly, lz), (hx, hy, hz) = q0, q1, lo, hi
     return ((x0 > hx and x1 > hx) or (x0 < lx and x1 < lx) or (z0 > hz and z1 > hz)
             or (z0 < lz and z1 < lz) or (y0 > hy and y1 > hy) or (y0 < ly and y1 < ly))
+
+
+def step_apart_with(apart: Callable) -> Callable:
+    """``step_apart`` built on ``apart`` (a compiled kernel builds it on a compiled ``apart``,
+    ``rallysim.core.one_game``)."""
+
+    def step_apart(f0: tuple, f1: tuple, w0: tuple, w1: tuple, top: float, net_lo: Any,
+                   net_hi: Any, face_lo: Any, face_hi: Any) -> bool:
+        """Whether one game's shuttle stayed apart from the floor (above ``top``), the net
+        and the face (``apart`` of their grown boxes) during a physics step from ``f0``,
+        ``w0`` to ``f1``, ``w1`` (``f``: in the face's frame, ``w``: in the world)."""
+        return (w0[2] > top and w1[2] > top and apart(w0, w1, net_lo, net_hi)
+                and apart(f0, f1, face_lo, face_hi))
+
+    return step_apart
+
+
+step_apart = step_apart_with(apart)
 
 
 def net_box(court: Court, radius: float) -> tuple[np.ndarray, np.ndarray]:
