@@ -249,9 +249,9 @@ class Single:
 def bench_singles(singles: list[Single], budget: Budget) -> list[Row]:
     """The single-env rows, timed in turn (``interleaved_calls_per_second``)."""
     made, rows = [], {}
+    stubbed = _stub_render_modules()  # (where bench_pendulum has not made them already)
     for single in singles:
         try:
-            stubbed = _stub_render_modules()
             step, env = single_stepper(single.env_id, single.kernel)
         except Exception as exc:  # a missing dependency, a Gymnasium without the env, ...
             rows[single.key] = Row(single.key, single.label, 1, None, None, None,
@@ -259,7 +259,7 @@ def bench_singles(singles: list[Single], budget: Budget) -> list[Row]:
             continue
         per = single.physics_per_decision or int(env.unwrapped.frame_skip)
         note = f"{per} physics steps per decision"
-        if stubbed:
+        if stubbed and single.env_id == PENDULUM_ID:
             note += f"; placeholder {', '.join(stubbed)} (render-only imports)"
         one = getattr(getattr(getattr(env.unwrapped, "task", None), "game", None), "_one", None)
         if one is not None:  # a single SIMPLE game: which kernel ran its physics steps
@@ -468,6 +468,7 @@ def machine_info() -> dict[str, Any]:
         "gymnasium": gym.__version__,
         "rallysim": version("rallysim"),
         "mujoco_distribution": f"mujoco-core {version('mujoco-core')}",
+        "numba": version("numba"),  # (the single SIMPLE env's compiled kernel: the fast extra)
     }
 
 
@@ -639,7 +640,8 @@ def main(argv: list[str] | None = None) -> int:
     print(f"machine: {info['cpu_count']} CPUs ({info['cpu']}), {info['platform']}, "
           f"Python {info['python']}, load average {info['load_average']}")
     print(f"versions: mujoco {info['mujoco']} ({info['mujoco_distribution']}), numpy "
-          f"{info['numpy']}, gymnasium {info['gymnasium']}, rallysim {info['rallysim']}\n",
+          f"{info['numpy']}, gymnasium {info['gymnasium']}, numba {info['numba']}, "
+          f"rallysim {info['rallysim']}\n",
           flush=True)
 
     memory = measure_memory(budget)  # first, while this process is still small

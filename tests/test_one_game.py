@@ -50,7 +50,8 @@ def _actions(kind: str, rng: np.random.Generator, obs: np.ndarray,
 # the compiled kernel where it can be had, else a visible skip; CI requires it
 # (RALLYSIM_REQUIRE_COMPILED=1 in .ci/run: then a missing one fails instead)
 COMPILED = pytest.param("compiled", marks=pytest.mark.skipif(
-    one_game.compiled_free_steps() is None and not os.environ.get("RALLYSIM_REQUIRE_COMPILED"),
+    one_game.compiled_free_steps() is None
+    and os.environ.get("RALLYSIM_REQUIRE_COMPILED") != "1",
     reason=f"no compiled kernel: {one_game.Compiled.why_not}"))
 KERNELS = ["python", COMPILED]
 
@@ -176,7 +177,7 @@ def test_the_kernel_chosen(monkeypatch):
     assert OneSimpleGame(Game(1, 1), "auto").kernel == auto
     assert OneSimpleGame(Game(1, 1), "python").kernel == "python"
     monkeypatch.setattr(one_game, "KERNEL", "python")  # the default, where none is given
-    assert Game(1, 1)._one.kernel == "python"
+    assert Game(1, 1)._one.asked == "python"
     with pytest.raises(ValueError, match=r"unknown kernel 'numba' \(one_game.KERNEL or "
                                          r"RALLYSIM_KERNEL\); valid: 'auto', 'python'"):
         OneSimpleGame(Game(1, 1), "numba")
@@ -206,14 +207,54 @@ def test_a_copy_taken_where_nothing_compiles_runs_python_alike(monkeypatch):
     rng = np.random.default_rng(5)
     env.reset(seed=2)
     for _ in range(5):
-        env.step(rng.uniform(-1, 1, 3).astype(np.float32))
+        _play(env, rng.uniform(-1, 1, 3).astype(np.float32))
     data = pickle.dumps(env)
-    monkeypatch.setattr(one_game, "compiled_free_steps", lambda: None)  # "another machine"
+    actions = rng.uniform(-1, 1, (400, 3)).astype(np.float32)
+    played = [_play(env, a) for a in actions]  # compiled, here
+    # "another machine": nothing compiles; the copy's steps run as Python, counted
+    monkeypatch.setattr(one_game, "compiled_free_steps", lambda: None)
+    calls = []
+    python_steps = one_game.PYTHON_FREE_STEPS
+    monkeypatch.setattr(one_game, "PYTHON_FREE_STEPS",
+                        lambda *args: calls.append(1) or python_steps(*args))
     copy = pickle.loads(data)
     assert copy.task.game._one.kernel == "python"
-    monkeypatch.undo()
-    assert env.task.game._one.kernel == "compiled"
-    _replay_alike(env, copy, rng, 400)
+    for a, (obs, rest) in zip(actions, played, strict=True):
+        again, again_rest = _play(copy, a)
+        assert _same_bits(obs, again) and rest == again_rest
+    assert len(calls) > 300
+
+
+def _play(env: SimpleReturnEnv, a: np.ndarray) -> tuple[np.ndarray, tuple]:
+    """One step (and the reset after an end): the observation, reward and ends."""
+    obs, reward, terminated, truncated, _ = env.step(a)
+    if terminated or truncated:
+        obs = env.reset()[0]
+    return obs, (reward, terminated, truncated)
+
+
+def test_where_the_compiled_kernel_cannot_be_had_it_says_why(monkeypatch):
+    for name, value in (("tried", False), ("free_steps", None), ("why_not", "")):
+        monkeypatch.setattr(one_game.Compiled, name, value)
+    monkeypatch.setattr(one_game.mujoco, "mj_versionString", lambda: "0.0.0")
+    assert one_game.compiled_free_steps() is None
+    assert one_game.Compiled.why_not.startswith("no libmujoco.so of MuJoCo 0.0.0 beside")
+    monkeypatch.setattr(one_game.Compiled, "tried", False)
+    monkeypatch.setattr(one_game, "_compile", lambda: 1 / 0)  # a Numba that cannot compile it
+    assert one_game.compiled_free_steps() is None
+    assert one_game.Compiled.why_not == "compiling failed: ZeroDivisionError: division by zero"
+    assert OneSimpleGame(Game(1, 1), "auto").kernel == "python"
+
+
+@pytest.mark.skipif(one_game.compiled_free_steps() is None,
+                    reason=f"no compiled kernel: {one_game.Compiled.why_not}")
+def test_the_dry_run_compiled_what_a_game_passes():
+    env = _with_kernel(SimpleReturnEnv(), "compiled")
+    env.reset(seed=1)
+    for _ in range(50):
+        _play(env, np.zeros(3, np.float32))
+    # one signature: the game's arrays are of the types the dry run compiled for
+    assert len(one_game.Compiled.free_steps.signatures) == 1
 
 
 @pytest.mark.parametrize("kernel", KERNELS)

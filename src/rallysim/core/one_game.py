@@ -152,13 +152,13 @@ def compiled_free_steps() -> Callable | None:
     sine or cosine differ from NumPy's on a probe of angles (then the compiled steps would not
     replay a batch bit for bit), or where compiling fails (``Compiled.why_not`` says which)."""
     if not Compiled.tried:
-        Compiled.tried = True
         try:
             Compiled.free_steps, Compiled.why_not = _compile(), ""
         except _Unavailable as exc:
             Compiled.why_not = str(exc)
         except Exception as exc:  # a Numba that cannot compile it: Python, with the same results
             Compiled.why_not = f"compiling failed: {type(exc).__name__}: {exc}"
+        Compiled.tried = True  # (not before: an interrupted try is tried again)
     return Compiled.free_steps
 
 
@@ -169,14 +169,17 @@ class _Unavailable(Exception):
 def _compile() -> Callable:
     try:
         import numba
-    except ImportError:
-        raise _Unavailable("Numba is not installed (pip install 'rallysim[fast]')") from None
+    except ImportError as exc:
+        raise _Unavailable(f"Numba cannot be imported (pip install 'rallysim[fast]'): {exc}"
+                           ) from None
     # the C library of the bindings' own version: a struct layout of another would corrupt
     # memory without an error
     version = mujoco.mj_versionString()
     libraries = sorted(glob.glob(os.path.join(os.path.dirname(mujoco.__file__), "libmujoco.so*")))
     for path in libraries:
         lib = ctypes.CDLL(path)
+        if not hasattr(lib, "mj_versionString"):
+            continue
         lib.mj_versionString.restype = ctypes.c_char_p
         if lib.mj_versionString().decode() == version:
             break
