@@ -49,11 +49,11 @@ def _actions(kind: str, rng: np.random.Generator, obs: np.ndarray,
 
 # the compiled kernel where it can be had, else a visible skip; CI requires it
 # (RALLYSIM_REQUIRE_COMPILED=1 in .ci/run: then a missing one fails instead)
-COMPILED = pytest.param("compiled", marks=pytest.mark.skipif(
+NEEDS_COMPILED = pytest.mark.skipif(
     one_game.compiled_free_steps() is None
     and os.environ.get("RALLYSIM_REQUIRE_COMPILED") != "1",
-    reason=f"no compiled kernel: {one_game.Compiled.why_not}"))
-KERNELS = ["python", COMPILED]
+    reason=f"no compiled kernel: {one_game.Compiled.why_not}")
+KERNELS = ["python", pytest.param("compiled", marks=NEEDS_COMPILED)]
 
 
 def _with_kernel(env: SimpleReturnEnv, kernel: str) -> SimpleReturnEnv:
@@ -198,8 +198,7 @@ def test_the_compiled_kernel_refused_where_it_cannot_run(monkeypatch):
         OneSimpleGame(Game(1, 1), "compiled")
 
 
-@pytest.mark.skipif(one_game.compiled_free_steps() is None,
-                    reason=f"no compiled kernel: {one_game.Compiled.why_not}")
+@NEEDS_COMPILED
 def test_a_copy_taken_where_nothing_compiles_runs_python_alike(monkeypatch):
     env = SimpleReturnEnv()
     env.task.game._one = OneSimpleGame(env.task.game, "auto")
@@ -246,8 +245,7 @@ def test_where_the_compiled_kernel_cannot_be_had_it_says_why(monkeypatch):
     assert OneSimpleGame(Game(1, 1), "auto").kernel == "python"
 
 
-@pytest.mark.skipif(one_game.compiled_free_steps() is None,
-                    reason=f"no compiled kernel: {one_game.Compiled.why_not}")
+@NEEDS_COMPILED
 def test_the_dry_run_compiled_what_a_game_passes():
     env = _with_kernel(SimpleReturnEnv(), "compiled")
     env.reset(seed=1)

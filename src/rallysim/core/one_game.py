@@ -34,7 +34,7 @@ import numpy as np
 
 from rallysim.core import rules
 from rallysim.core.bodies import SimpleBodies
-from rallysim.core.lanes import SCALARS, _cos, _sin
+from rallysim.core.lanes import SCALARS
 from rallysim.core.shuttle import GRAVITY, PaperShuttle
 
 KERNELS = ("auto", "python", "compiled")
@@ -134,7 +134,7 @@ def _free_steps_with(mj_step: Callable, sin: Callable, cos: Callable, step_apart
     return free_steps
 
 
-PYTHON_FREE_STEPS = _free_steps_with(mujoco.mj_step, _sin, _cos, rules.step_apart)
+PYTHON_FREE_STEPS = _free_steps_with(mujoco.mj_step, SCALARS.sin, SCALARS.cos, rules.step_apart)
 
 
 class Compiled:
@@ -221,8 +221,9 @@ def _dry_run(free_steps: Callable) -> None:
 
 class OneSimpleGame:
     """The fused physics steps of ``game`` (see the module docstring). It holds only numbers
-    read from the game when it is made (so a copy of the game copies it whole), and is made
-    once per game: the game's bodies, flight and boxes do not change."""
+    read from the game when it is made and the name of the kernel asked for (so a copy of the
+    game copies it whole), and is made once per game: the game's bodies, flight and boxes do
+    not change."""
 
     @staticmethod
     def fits(game: Any) -> bool:
@@ -235,10 +236,12 @@ class OneSimpleGame:
         if kernel not in KERNELS:
             raise ValueError(f"unknown kernel {kernel!r} (one_game.KERNEL or {KERNEL_VARIABLE});"
                              f" valid: {', '.join(map(repr, KERNELS))}")
-        # the name asked for, resolved in each process: a copy taken elsewhere (pickle) runs
-        # the compiled kernel where it can be had there
+        # the name asked for, resolved in each process at its first step (compiling takes
+        # seconds: not where a game is only made): a copy taken elsewhere (pickle) runs the
+        # compiled kernel where it can be had there
         self.asked = kernel
-        self._free_steps_function()
+        if kernel == "compiled":
+            self._free_steps_function()  # refused here, not at the first step
         b, flight = game.bodies, game.flight
         dt, (lo, hi) = flight.dt, b.base_range
         net_lo, net_hi = game._net_apart
