@@ -19,7 +19,7 @@ ours, single env
     (Gymnasium's wrappers included) with pre-generated uniform random actions, reset when an
     episode ends: the way one environment is used without a vector env. The SIMPLE one runs
     its physics steps compiled where Numba is installed (the ``fast`` extra), and once more as
-    Python (``rallysim.core.one_game.KERNEL = "python"``). The single envs and the single
+    Python (``rallysim.core.native.KERNEL = "python"``). The single envs and the single
     pendulum below are timed in turn, one repeat of each per round, so that a slower minute of
     a shared machine slows them all.
 (a1) single-world raw ceiling
@@ -73,7 +73,7 @@ import gymnasium as gym
 import mujoco
 import numpy as np
 
-from rallysim.core import one_game
+from rallysim.core import native
 from rallysim.core.bodies import build_simple_world
 from rallysim.core.game import PHYSICS_STEPS_PER_DECISION
 from rallysim.envs.simple_return_v0 import SimpleReturnVectorEnv
@@ -213,13 +213,13 @@ def ours_scripted_stepper(n: int) -> Stepper:
 def single_stepper(env_id: str, kernel: str | None = None) -> tuple[Stepper, gym.Env]:
     """``gym.make(env_id)`` stepped with pre-drawn uniform random actions, reset at each
     episode's end (as a training or evaluation loop over one environment does); ``kernel``:
-    ``one_game.KERNEL`` while it is made."""
-    default = one_game.KERNEL
-    one_game.KERNEL = kernel or default
+    ``native.KERNEL`` while it is made."""
+    default = native.KERNEL
+    native.KERNEL = kernel or default
     try:
         env = gym.make(env_id)
     finally:
-        one_game.KERNEL = default
+        native.KERNEL = default
     env.reset(seed=0)
     space = env.action_space
     batches = np.random.default_rng(0).uniform(space.low, space.high,
@@ -261,9 +261,9 @@ def bench_singles(singles: list[Single], budget: Budget) -> list[Row]:
         note = f"{per} physics steps per decision"
         if stubbed and single.env_id == PENDULUM_ID:
             note += f"; placeholder {', '.join(stubbed)} (render-only imports)"
-        one = getattr(getattr(getattr(env.unwrapped, "task", None), "game", None), "_one", None)
-        if one is not None:  # a single SIMPLE game: which kernel ran its physics steps
-            note += f"; {one.kernel} physics steps"
+        game = getattr(getattr(env.unwrapped, "task", None), "game", None)
+        if game is not None:  # a single RallySim game: which kernel ran its physics steps
+            note += f"; {game.kernel} physics steps"
         made.append((single, step, per, note))
     rates = interleaved_calls_per_second([step for _, step, _, _ in made], budget)
     for (single, _, per, note), calls in zip(made, rates, strict=True):
@@ -609,10 +609,12 @@ def throughput_rows(budget: Budget) -> list[Row]:
     rows += bench_singles([
         Single("single_simple", f"rallysim gym.make({SIMPLE_ID!r}), random actions",
                SIMPLE_ID, PHYSICS_STEPS_PER_DECISION),
-        Single("single_simple_python", f"the same, {one_game.KERNEL_VARIABLE}=python", SIMPLE_ID,
+        Single("single_simple_python", f"the same, {native.KERNEL_VARIABLE}=python", SIMPLE_ID,
                PHYSICS_STEPS_PER_DECISION, "python"),
         Single("single_humanlike", f"rallysim gym.make({HUMANLIKE_ID!r}), random actions",
                HUMANLIKE_ID, PHYSICS_STEPS_PER_DECISION),
+        Single("single_humanlike_python", f"the same, {native.KERNEL_VARIABLE}=python",
+               HUMANLIKE_ID, PHYSICS_STEPS_PER_DECISION, "python"),
         Single("single_pendulum", f"(b) gym.make({PENDULUM_ID!r}), random actions",
                PENDULUM_ID),
     ], budget)

@@ -16,6 +16,7 @@ from rallysim.core.humanlike import (
 from rallysim.envs.humanlike_return_v0 import HumanLikeReturnEnv, HumanLikeReturnVectorEnv
 from rallysim.policies.scripted_swing import ScriptedSwing
 from tests.conftest import check_seeded_and_batched
+from tests.test_one_humanlike import NEEDS_COMPILED
 
 # docs/reference.md §10's joint table, degrees, in JOINTS order
 SPEC_RANGES = [(-15, 15), (-15, 15), (-90, 90), (-75, 75), (-85, 85), (0, 100), (-90, 90),
@@ -360,13 +361,15 @@ def test_joint_and_group_tables_agree():
     assert np.bincount(JOINT_GROUP).tolist() == [1, 1, 3, 1, 2]
 
 
-def test_one_player_float_path_matches_the_array_code_bit_for_bit():
-    """N = P = 1 steps and observes on Python floats (``_one`` methods); the array code on the
-    same states gives the same bits, signed zeros included."""
+@pytest.mark.parametrize("kernel", ["python", pytest.param("compiled", marks=NEEDS_COMPILED)])
+def test_one_player_float_path_matches_the_array_code_bit_for_bit(kernel):
+    """N = P = 1 steps and observes on Python floats (``_one`` methods) or compiled
+    (``rallysim.core.one_humanlike``); the array code on the same states gives the same bits,
+    signed zeros included."""
     from rallysim.core import humanlike_obs
 
     rng = np.random.default_rng(0)
-    floats, arrays = HumanLikeBodies(1, 1), HumanLikeBodies(1, 1)
+    floats, arrays = HumanLikeBodies(1, 1, kernel=kernel), HumanLikeBodies(1, 1)
     arrays._one = False
     for k in range(600):
         if k % 200 == 0:

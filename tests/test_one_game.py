@@ -14,13 +14,14 @@ import sys
 import numpy as np
 import pytest
 
-from rallysim.core import one_game
+from rallysim.core import native, one_game
 from rallysim.core.bodies import SimpleBodies
 from rallysim.core.game import Game
 from rallysim.core.humanlike import HumanLikeBodies
 from rallysim.core.one_game import OneSimpleGame
 from rallysim.envs.simple_return_v0 import SimpleReturnEnv, SimpleReturnVectorEnv
 from rallysim.policies.scripted import ScriptedController
+from tests.kernels import counting, needs_compiled, play, same_bits
 
 
 def _state(env: SimpleReturnEnv) -> list[np.ndarray]:
@@ -31,10 +32,6 @@ def _state(env: SimpleReturnEnv) -> list[np.ndarray]:
             b.torque_limit, sh.motion, sh.shot_time, sh.shot_speed, game._q, game._gap,
             *vars(st).values(), *vars(game.events).values()]
 
-
-def _same_bits(x, y) -> bool:
-    x, y = np.asarray(x), np.asarray(y)
-    return x.dtype == y.dtype and x.shape == y.shape and x.tobytes() == y.tobytes()
 
 
 def _actions(kind: str, rng: np.random.Generator, obs: np.ndarray,
@@ -47,12 +44,7 @@ def _actions(kind: str, rng: np.random.Generator, obs: np.ndarray,
     return rng.uniform(-1.0, 1.0, 3).astype(np.float32)
 
 
-# the compiled kernel where it can be had, else a visible skip; CI requires it
-# (RALLYSIM_REQUIRE_COMPILED=1 in .ci/run: then a missing one fails instead)
-NEEDS_COMPILED = pytest.mark.skipif(
-    one_game.compiled_free_steps() is None
-    and os.environ.get("RALLYSIM_REQUIRE_COMPILED") != "1",
-    reason=f"no compiled kernel: {one_game.Compiled.why_not}")
+NEEDS_COMPILED = needs_compiled(one_game.Compiled)
 KERNELS = ["python", pytest.param("compiled", marks=NEEDS_COMPILED)]
 
 
@@ -63,52 +55,34 @@ def _with_kernel(env: SimpleReturnEnv, kernel: str) -> SimpleReturnEnv:
     return env
 
 
-def _counting(game: Game) -> dict[str, int]:
-    """Count the physics steps the fused path runs and those the lanes code runs."""
-    counts = {"fused": 0, "lanes": 0}
-    free, lanes = game._one._free_steps, game._step_lanes
-
-    def fused_steps(g, steps):
-        run = free(g, steps)
-        counts["fused"] += run
-        return run
-
-    def lanes_step(g, ops):
-        counts["lanes"] += 1
-        lanes(g, ops)
-
-    game._one._free_steps, game._step_lanes = fused_steps, lanes_step
-    return counts
-
-
 @pytest.mark.parametrize("kernel", KERNELS)
 @pytest.mark.parametrize("kind", ["random", "scripted", "extreme"])
 def test_fused_steps_replay_the_lanes_code_and_a_batch(kind, kernel):
     fused, lanes = _with_kernel(SimpleReturnEnv(), kernel), SimpleReturnEnv()
     batch = SimpleReturnVectorEnv(2, autoreset_mode="same_step")
     lanes.task.game._one = None
-    counts = _counting(fused.task.game)
+    counts = counting(fused.task.game)
     rng, controller = np.random.default_rng(3), ScriptedController()
     seen = {"hit": 0, "landed_in": 0, "net_touch": 0, "stopped": 0, "episodes": 0}
     obs_f, _ = fused.reset(seed=11)
     obs_l, _ = lanes.reset(seed=11)
     obs_b, _ = batch.reset(seed=11)
-    assert _same_bits(obs_f, obs_l) and _same_bits(obs_f, obs_b[0])
+    assert same_bits(obs_f, obs_l) and same_bits(obs_f, obs_b[0])
     for step in range(1500):
         a = _actions(kind, rng, obs_f, controller)
         obs_f, r_f, term_f, trunc_f, info_f = fused.step(a)
         obs_l, r_l, term_l, trunc_l, info_l = lanes.step(a)
         obs_b, r_b, term_b, trunc_b, _ = batch.step(np.stack([a, -a]))
-        assert _same_bits(obs_f, obs_l) and _same_bits(r_f, r_l), step
+        assert same_bits(obs_f, obs_l) and same_bits(r_f, r_l), step
         assert (term_f, trunc_f) == (term_l, trunc_l)
         assert info_f.keys() == info_l.keys()
         for key in info_f:
-            assert _same_bits(info_f[key], info_l[key]), (step, key)
+            assert same_bits(info_f[key], info_l[key]), (step, key)
         for x, y in zip(_state(fused), _state(lanes), strict=True):
-            assert _same_bits(x, y), step
+            assert same_bits(x, y), step
         # env 0 of a batch seeded alike: the same reward and ends, and the same observation
         # (after an end, the batch's is the next episode's first: compared after the reset)
-        assert _same_bits(np.float64(r_f), r_b[0])
+        assert same_bits(np.float64(r_f), r_b[0])
         assert (term_f, trunc_f) == (term_b[0], trunc_b[0])
         seen["hit"] += info_f["hit"]
         seen["landed_in"] += bool(info_f.get("landed_in", False))
@@ -118,8 +92,8 @@ def test_fused_steps_replay_the_lanes_code_and_a_batch(kind, kernel):
             seen["episodes"] += 1
             obs_f, _ = fused.reset()
             obs_l, _ = lanes.reset()
-            assert _same_bits(obs_f, obs_l)
-        assert _same_bits(obs_f, obs_b[0]), step
+            assert same_bits(obs_f, obs_l)
+        assert same_bits(obs_f, obs_b[0]), step
     # the play reached every kind of judged step the fused path hands over
     assert seen["episodes"] >= 20 and seen["hit"] >= 10, seen
     if kind == "scripted":
@@ -139,9 +113,9 @@ def _replay_alike(env: SimpleReturnEnv, copy: SimpleReturnEnv, rng: np.random.Ge
     for _ in range(decisions):
         a = rng.uniform(-1, 1, 3).astype(np.float32)
         one, two = env.step(a), copy.step(a)
-        assert _same_bits(one[0], two[0]) and one[1:4] == two[1:4]
+        assert same_bits(one[0], two[0]) and one[1:4] == two[1:4]
         if one[2] or one[3]:
-            assert _same_bits(env.reset()[0], copy.reset()[0])
+            assert same_bits(env.reset()[0], copy.reset()[0])
 
 
 @pytest.mark.parametrize("kernel", KERNELS)
@@ -164,7 +138,8 @@ def test_fused_steps_only_where_they_fit():
     assert Game(1, 2)._one is None  # two players
     assert Game(1, 1, shuttle="aero")._one is None  # another flight model
     assert Game(1, 1, shuttle="paper-alg1")._one is None
-    assert Game(1, 1, bodies=HumanLikeBodies(1, 1))._one is None  # another player model
+    # another player model: its own fused steps (tests/test_one_humanlike.py)
+    assert not isinstance(Game(1, 1, bodies=HumanLikeBodies(1, 1))._one, OneSimpleGame)
 
     class Bodies(SimpleBodies):  # a player model built on SIMPLE's may change its motion
         pass
@@ -176,23 +151,28 @@ def test_the_kernel_chosen(monkeypatch):
     auto = "python" if one_game.compiled_free_steps() is None else "compiled"
     assert OneSimpleGame(Game(1, 1), "auto").kernel == auto
     assert OneSimpleGame(Game(1, 1), "python").kernel == "python"
-    monkeypatch.setattr(one_game, "KERNEL", "python")  # the default, where none is given
+    monkeypatch.setattr(native, "KERNEL", "python")  # the default, where none is given
     assert Game(1, 1)._one.asked == "python"
-    with pytest.raises(ValueError, match=r"unknown kernel 'numba' \(one_game.KERNEL or "
+    with pytest.raises(ValueError, match=r"unknown kernel 'numba' \(native.KERNEL or "
                                          r"RALLYSIM_KERNEL\); valid: 'auto', 'python'"):
         OneSimpleGame(Game(1, 1), "numba")
 
 
 def test_the_kernel_variable_sets_the_default():
-    code = "from rallysim.core import one_game; print(one_game.KERNEL)"
+    code = "from rallysim.core import native; print(native.KERNEL)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          env={**os.environ, "RALLYSIM_KERNEL": "python"}, check=True)
     assert out.stdout.strip() == "python"
 
 
+def _nothing_compiles(monkeypatch, why: str) -> None:
+    """As where the compiled kernel cannot be had ("another machine")."""
+    for name, value in (("tried", True), ("function", None), ("why_not", why)):
+        monkeypatch.setattr(one_game.Compiled, name, value)
+
+
 def test_the_compiled_kernel_refused_where_it_cannot_run(monkeypatch):
-    monkeypatch.setattr(one_game, "compiled_free_steps", lambda: None)
-    monkeypatch.setattr(one_game.Compiled, "why_not", "Numba is not installed")
+    _nothing_compiles(monkeypatch, "Numba is not installed")
     assert OneSimpleGame(Game(1, 1), "auto").kernel == "python"  # falls back
     with pytest.raises(RuntimeError, match="compiled kernel cannot run here: Numba is not "):
         OneSimpleGame(Game(1, 1), "compiled")
@@ -206,12 +186,12 @@ def test_a_copy_taken_where_nothing_compiles_runs_python_alike(monkeypatch):
     rng = np.random.default_rng(5)
     env.reset(seed=2)
     for _ in range(5):
-        _play(env, rng.uniform(-1, 1, 3).astype(np.float32))
+        play(env, rng.uniform(-1, 1, 3).astype(np.float32))
     data = pickle.dumps(env)
     actions = rng.uniform(-1, 1, (400, 3)).astype(np.float32)
-    played = [_play(env, a) for a in actions]  # compiled, here
+    played = [play(env, a) for a in actions]  # compiled, here
     # "another machine": nothing compiles; the copy's steps run as Python, counted
-    monkeypatch.setattr(one_game, "compiled_free_steps", lambda: None)
+    _nothing_compiles(monkeypatch, "a test")
     calls = []
     python_steps = one_game.PYTHON_FREE_STEPS
     monkeypatch.setattr(one_game, "PYTHON_FREE_STEPS",
@@ -219,21 +199,14 @@ def test_a_copy_taken_where_nothing_compiles_runs_python_alike(monkeypatch):
     copy = pickle.loads(data)
     assert copy.task.game._one.kernel == "python"
     for a, (obs, rest) in zip(actions, played, strict=True):
-        again, again_rest = _play(copy, a)
-        assert _same_bits(obs, again) and rest == again_rest
+        again, again_rest = play(copy, a)
+        assert same_bits(obs, again) and rest == again_rest
     assert len(calls) > 300
 
 
-def _play(env: SimpleReturnEnv, a: np.ndarray) -> tuple[np.ndarray, tuple]:
-    """One step (and the reset after an end): the observation, reward and ends."""
-    obs, reward, terminated, truncated, _ = env.step(a)
-    if terminated or truncated:
-        obs = env.reset()[0]
-    return obs, (reward, terminated, truncated)
-
 
 def test_where_the_compiled_kernel_cannot_be_had_it_says_why(monkeypatch):
-    for name, value in (("tried", False), ("free_steps", None), ("why_not", "")):
+    for name, value in (("tried", False), ("function", None), ("why_not", "")):
         monkeypatch.setattr(one_game.Compiled, name, value)
     monkeypatch.setattr(one_game.mujoco, "mj_versionString", lambda: "0.0.0")
     assert one_game.compiled_free_steps() is None
@@ -250,9 +223,9 @@ def test_the_dry_run_compiled_what_a_game_passes():
     env = _with_kernel(SimpleReturnEnv(), "compiled")
     env.reset(seed=1)
     for _ in range(50):
-        _play(env, np.zeros(3, np.float32))
+        play(env, np.zeros(3, np.float32))
     # one signature: the game's arrays are of the types the dry run compiled for
-    assert len(one_game.Compiled.free_steps.signatures) == 1
+    assert len(one_game.Compiled.function.signatures) == 1
 
 
 @pytest.mark.parametrize("kernel", KERNELS)
@@ -266,9 +239,9 @@ def test_fused_steps_without_shaping(kernel):
     for step in range(500):
         a = rng.uniform(-1, 1, 3).astype(np.float32)
         one, two = fused.step(a), lanes.step(a)
-        assert _same_bits(one[0], two[0]) and one[1:4] == two[1:4], step
+        assert same_bits(one[0], two[0]) and one[1:4] == two[1:4], step
         for x, y in zip(_state(fused), _state(lanes), strict=True):
-            assert _same_bits(x, y), step
+            assert same_bits(x, y), step
         assert fused.task.game.events.approach_bad.item() == 0  # nothing counted
         if one[2] or one[3]:
             fused.reset()

@@ -19,7 +19,8 @@ from rallysim.core.bodies import PlayerBodies, SimpleBodies
 from rallysim.core.court import Court
 from rallysim.core.events import EventRows, Events
 from rallysim.core.lanes import ARRAYS, SCALARS, ArrayLanes, Ops, ScalarLanes
-from rallysim.core.one_game import OneSimpleGame
+from rallysim.core.one_game import OneGame, OneSimpleGame
+from rallysim.core.one_humanlike import OneHumanLikeGame
 from rallysim.core.serve import MachineServe, Serve
 from rallysim.core.shuttle import RADIUS, ShuttleState, make_shuttle_model
 from rallysim.core.state import RallyState
@@ -101,8 +102,18 @@ class Game:
         self._views: dict[str, np.ndarray] | None = None
         self._vectors: dict[str, np.ndarray] | None = None
         self._array_lanes: ArrayLanes | None = None
-        # one game of one SIMPLE player with the paper flight: its physics steps fused
-        self._one = OneSimpleGame(self) if OneSimpleGame.fits(self) else None
+        # one game of one player with the paper flight: its physics steps fused
+        self._one: OneGame | None = None
+        if OneSimpleGame.fits(self):
+            self._one = OneSimpleGame(self)
+        elif OneHumanLikeGame.fits(self):
+            self._one = OneHumanLikeGame(self)
+
+    @property
+    def kernel(self) -> str:
+        """What runs this game's physics steps in this process: "compiled" (a compiled kernel
+        of one game, ``rallysim.core.native``) or "python"."""
+        return "python" if self._one is None else self._one.kernel_in(self)
 
     # -- the rally's state (RallyState), as the game's own arrays --------------------------------
     @property

@@ -33,6 +33,7 @@ import mujoco
 import numpy as np
 
 from rallysim.assets import asset_path
+from rallysim.core import native, one_humanlike
 from rallysim.core.bodies import MjDataViews
 from rallysim.core.lanes import ARRAYS, ArrayLanes, Ops, ScalarLanes
 from rallysim.core.rules import FORWARD
@@ -75,10 +76,16 @@ class HumanLikeBodies(MjDataViews):
     max_hips_speed = 5.0  # m/s, a badminton player's lunge; the SIMPLE base's speed
     hips_range = np.array([[-6.5, -0.5], [-2.8, 2.8]])  # own-frame x and y of the hips centre
 
-    def __init__(self, n_envs: int, n_players: int = 1, dt: float = 0.02) -> None:
+    def __init__(self, n_envs: int, n_players: int = 1, dt: float = 0.02,
+                 kernel: str | None = None) -> None:
         if n_envs < 1 or n_players not in (1, 2):
             raise ValueError(f"need n_envs >= 1 and n_players in (1, 2), got {n_envs}, {n_players}")
         self.n_envs, self.n_players, self.dt = n_envs, n_players, dt
+        # one player's physics step: the name asked for (``rallysim.core.native``), resolved in
+        # each process at its first step, as for one SIMPLE game
+        self.kernel_asked = native.checked_kernel_name(kernel)
+        if self.kernel_asked == "compiled" and (n_envs, n_players) == (1, 1):
+            one_humanlike.Compiled.resolve("compiled")  # refused here, not at the first step
         self.model = build_humanlike_world(n_envs, n_players, dt)
         self.data = mujoco.MjData(self.model)
         m, shape = self.model, (n_envs, n_players)
@@ -123,12 +130,22 @@ class HumanLikeBodies(MjDataViews):
         self._joint_group = JOINT_GROUP.tolist()
         self._joint_max_list = self._joint_max_torque.tolist()
         self._sets: dict[tuple[int, ...], tuple] = {}  # _set_arrays of each saturated set
+        self._constants = np.concatenate([self.lo, self.hi, self._joint_max_rate, [
+            dt, 2.0 * BRAKE_SHARE, MAX_JOINT_SPEED, *self._hips_lo, *self._hips_hi,
+            self._forward_one, self.hips_height]])  # the compiled step's (one_humanlike)
         self._dirty = True  # kinematics must be recomputed before they are read
         self._sync_mocap()
         self._sync()
 
     _views = ("qpos", "qvel", "torque", "_bias", "_mass", "_mocap", "_face_pos", "_face_mat",
               "base_x", "_flat_qpos", "_flat_qvel", "_flat_ctrl", "_flat_bias")
+
+    @property
+    def kernel(self) -> str:
+        """What runs one player's physics steps in this process: "compiled" or "python" (a
+        batch: its array code, "python")."""
+        one = self._one and one_humanlike.Compiled.resolve(self.kernel_asked) is not None
+        return "compiled" if one else "python"
 
     def _bind_views(self) -> None:
         """Views into MuJoCo's memory (players are env-major and contiguous in every array),
@@ -194,6 +211,16 @@ class HumanLikeBodies(MjDataViews):
         ``mj_step``) so that afterwards the kinematics, inertia and bias forces describe the new
         state: the rulebook reads the face there, and the next servo solve needs them."""
         self._sync()
+        if self._one:
+            compiled = one_humanlike.Compiled.resolve(self.kernel_asked)
+            if compiled is not None:
+                compiled.physics_step(
+                    self.model._address, self.data._address, self._mass, self._m_index,
+                    self._flat_qpos, self._flat_qvel, self._flat_ctrl, self._flat_bias,
+                    self.target, self.torque_limit, self._side, self._face0, self._face_pos,
+                    self.hips, self._hips_step, self.hips_velocity, self.base_moved,
+                    self._mocap, self._constants)
+                return
         np.copyto(self._face0, self._face_pos)
         if self._one:
             self._servo_one()
