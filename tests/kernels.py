@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from rallysim.core import native
+from rallysim.core import native, one_game, one_humanlike
 
 
 def needs_compiled(kernel: native.Kernel) -> pytest.MarkDecorator:
@@ -18,6 +18,10 @@ def needs_compiled(kernel: native.Kernel) -> pytest.MarkDecorator:
     return pytest.mark.skipif(
         kernel.get() is None and os.environ.get("RALLYSIM_REQUIRE_COMPILED") != "1",
         reason=f"no compiled kernel: {kernel.why_not}")
+
+
+NEEDS_COMPILED_SIMPLE = needs_compiled(one_game.Compiled)
+NEEDS_COMPILED_HUMANLIKE = needs_compiled(one_humanlike.Compiled)
 
 
 def same_bits(x: Any, y: Any) -> bool:

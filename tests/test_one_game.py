@@ -21,7 +21,7 @@ from rallysim.core.humanlike import HumanLikeBodies
 from rallysim.core.one_game import OneSimpleGame
 from rallysim.envs.simple_return_v0 import SimpleReturnEnv, SimpleReturnVectorEnv
 from rallysim.policies.scripted import ScriptedController
-from tests.kernels import counting, needs_compiled, play, same_bits
+from tests.kernels import NEEDS_COMPILED_SIMPLE, counting, play, same_bits
 
 
 def _state(env: SimpleReturnEnv) -> list[np.ndarray]:
@@ -44,7 +44,7 @@ def _actions(kind: str, rng: np.random.Generator, obs: np.ndarray,
     return rng.uniform(-1.0, 1.0, 3).astype(np.float32)
 
 
-NEEDS_COMPILED = needs_compiled(one_game.Compiled)
+NEEDS_COMPILED = NEEDS_COMPILED_SIMPLE
 KERNELS = ["python", pytest.param("compiled", marks=NEEDS_COMPILED)]
 
 
@@ -246,3 +246,4 @@ def test_fused_steps_without_shaping(kernel):
         if one[2] or one[3]:
             fused.reset()
             lanes.reset()
+

@@ -16,9 +16,9 @@ from rallysim.core.humanlike import N_ACTIONS, HumanLikeBodies
 from rallysim.core.one_humanlike import OneHumanLikeGame
 from rallysim.envs.humanlike_return_v0 import HumanLikeReturnEnv, HumanLikeReturnVectorEnv
 from rallysim.policies.scripted_swing import ScriptedSwing
-from tests.kernels import counting, needs_compiled, play, same_bits
+from tests.kernels import NEEDS_COMPILED_HUMANLIKE, counting, play, same_bits
 
-NEEDS_COMPILED = needs_compiled(one_humanlike.Compiled)
+NEEDS_COMPILED = NEEDS_COMPILED_HUMANLIKE
 
 
 def _with_kernel(env: HumanLikeReturnEnv, kernel: str) -> HumanLikeReturnEnv:
@@ -136,6 +136,13 @@ def test_fused_steps_only_where_they_fit():
     assert Game(1, 2, bodies=HumanLikeBodies(1, 2))._one is None  # two players
     assert Game(1, 1, shuttle="aero", bodies=HumanLikeBodies(1, 1))._one is None
     assert HumanLikeBodies(2, 1, kernel="auto").kernel == "python"  # a batch's array code
+    assert len(HumanLikeBodies(1, 1)._constants) == one_humanlike.N_CONSTANTS
+
+    class Bodies(HumanLikeBodies):  # a player model built on HUMAN-LIKE's may change its motion
+        pass
+
+    assert Game(1, 1, bodies=Bodies(1, 1))._one is None
+    assert Bodies(1, 1, kernel="auto").kernel == "python"
     with pytest.raises(ValueError, match=r"unknown kernel 'numba' \(native.KERNEL or "):
         HumanLikeBodies(1, 1, kernel="numba")
 
@@ -172,11 +179,17 @@ def test_the_probe_refuses_row_sums_or_a_solve_unlike_numpys(monkeypatch):
                 total += p[i, j]
             out[i] = total
 
-    kernel = _fresh_kernel(monkeypatch)
-    monkeypatch.setattr(one_humanlike, "row_sums8", sequential)
-    assert kernel.get() is None
-    assert kernel.why_not == "the compiled row sums differ from NumPy's on this machine"
-    monkeypatch.undo()
+    def unstarted(p, out):  # NumPy's pairwise order without the reduction's +0.0 start
+        for i in range(8):
+            out[i] = (((p[i, 0] + p[i, 1]) + (p[i, 2] + p[i, 3]))
+                      + ((p[i, 4] + p[i, 5]) + (p[i, 6] + p[i, 7])))
+
+    for wrong in (sequential, unstarted):
+        kernel = _fresh_kernel(monkeypatch)
+        monkeypatch.setattr(one_humanlike, "row_sums8", wrong)
+        assert kernel.get() is None
+        assert kernel.why_not == "the compiled row sums differ from NumPy's on this machine"
+        monkeypatch.undo()
 
     solve_with = one_humanlike._solve_with
 
@@ -195,3 +208,45 @@ def test_the_probe_refuses_row_sums_or_a_solve_unlike_numpys(monkeypatch):
     assert kernel.get() is None
     assert kernel.why_not == "the compiled solve differs from NumPy's on this machine"
     assert HumanLikeBodies(1, 1, kernel="auto").kernel == "python"
+
+
+@NEEDS_COMPILED
+def test_without_numpys_dgesv_it_says_why(monkeypatch):
+    kernel = _fresh_kernel(monkeypatch)
+    monkeypatch.setattr(native, "DGESV_NAMES", ("no_such_dgesv_",))
+    assert kernel.get() is None
+    assert kernel.why_not == "NumPy's LAPACK has no 64-bit-integer dgesv (no_such_dgesv_)"
+
+
+@NEEDS_COMPILED
+def test_a_shaped_game_replays_python_and_a_batch():
+    """The approach counts of ``Game(shaping=True)`` (the HUMAN-LIKE task does not shape):
+    compiled, as Python and as env 0 of a batch seeded alike."""
+    games = [Game(1, 1, seed=5, shaping=True, bodies=HumanLikeBodies(1, 1, kernel=kernel))
+             for kernel in ("compiled", "python")]
+    batch = Game(2, 1, seed=5, shaping=True, bodies=HumanLikeBodies(2, 1))
+    assert [g.kernel for g in games] == ["compiled", "python"]
+    for g in (*games, batch):
+        g.reset(np.arange(g.n_envs))
+    rng = np.random.default_rng(5)
+    good = bad = rallies = 0
+    for step in range(400):
+        a = rng.uniform(-1, 1, (1, 1, N_ACTIONS))
+        if step % 3 == 0:  # the hips stay put: steps that do not close in
+            a[..., :2] = 0.0
+        events = [g.step(a) for g in games]
+        batch_events = batch.step(np.concatenate([a, -a]))
+        for g in (games[1], batch):
+            for x, y in ((games[0]._gap, g._gap[:1]), (games[0]._q[:, :1], g._q[:1, :1]),
+                         (games[0].shuttle.motion, g.shuttle.motion[:, :1]),
+                         (events[0].approach_good, events[1].approach_good),
+                         (events[0].approach_good, batch_events.approach_good[:1]),
+                         (events[0].approach_bad, batch_events.approach_bad[:1])):
+                assert same_bits(x, y), step
+        good += int(events[0].approach_good.sum())
+        bad += int(events[0].approach_bad.sum())
+        if not games[0].state.in_play.item():
+            rallies += 1
+            for g in (*games, batch):
+                g.reset(np.array([0]))
+    assert good > 50 and bad > 50 and rallies >= 5, (good, bad, rallies)

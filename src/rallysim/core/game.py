@@ -426,6 +426,9 @@ class Game:
         """Shuttles whose centre crossed z = 0 (``landed`` (N,), at fraction ``t`` of the
         step from ``p0``) land: the point, side and in/out are recorded and play stops."""
         sh, ev = self.shuttle, self.events
+        if self.ops.scalar:  # one game: the same arithmetic on floats, fewer NumPy calls
+            self._land_one(t.item(), p0[0].tolist())
+            return
         idx = np.flatnonzero(landed)
         t = t.reshape(-1)
         point = p0[idx] + t[idx, None] * (sh.pos[idx] - p0[idx])
@@ -437,6 +440,18 @@ class Game:
                                            self.rules.full_court)
         rules.record_landings(self.state, idx)
         sh.vel[idx] = 0.0
+
+    def _land_one(self, t: float, p0: list[float]) -> None:
+        """``_land`` of one game, whose shuttle landed at fraction ``t`` of the step from
+        ``p0``."""
+        sh, ev = self.shuttle, self.events
+        x, y, _ = (a + t * (b - a) for a, b in zip(p0, sh.pos[0].tolist(), strict=True))
+        ev.landed[0] = True
+        ev.land_point[0] = x, y, 0.0
+        ev.land_side[0] = rules.in_far_half(x)
+        ev.land_in[0] = rules.landing_in(self.court, abs(x), y, self.rules.full_court)
+        rules.record_landings(self.state, 0)
+        sh.vel[0] = 0.0
 
     def _apply_hits(self, hit: np.ndarray, t: np.ndarray, p0: np.ndarray) -> None:
         """Shuttles met by an armed face leave as the bodies' shot rule says (SIMPLE: at twice

@@ -70,7 +70,12 @@ class HumanLikeBodies(MjDataViews):
 
     Actions (N, P, 15) in [-1, 1]: hips velocity x, y = ``max_hips_speed`` * a (own frame);
     target angles spanning each joint's range; strength = (a + 1) / 2 of each group's maximum
-    torque (``group_max_torque``, read from the MJCF's motor ranges)."""
+    torque (``group_max_torque``, read from the MJCF's motor ranges).
+
+    ``kernel`` (``rallysim.core.native``: ``auto``, ``python``, ``compiled``; None:
+    ``native.KERNEL``) chooses what steps one player (N = P = 1): ``rallysim.core.one_humanlike``
+    compiled or the ``_one`` methods on Python floats, with the same results. A batch runs its
+    array code whatever it says."""
 
     hips_height = 0.9
     max_hips_speed = 5.0  # m/s, a badminton player's lunge; the SIMPLE base's speed
@@ -81,10 +86,12 @@ class HumanLikeBodies(MjDataViews):
         if n_envs < 1 or n_players not in (1, 2):
             raise ValueError(f"need n_envs >= 1 and n_players in (1, 2), got {n_envs}, {n_players}")
         self.n_envs, self.n_players, self.dt = n_envs, n_players, dt
-        # one player's physics step: the name asked for (``rallysim.core.native``), resolved in
-        # each process at its first step, as for one SIMPLE game
+        # one player's physics step (N = P = 1 only): the name asked for
+        # (``rallysim.core.native``), resolved in each process at its first step, as for one
+        # SIMPLE game; a subclass may change the motion, so it keeps its own Python methods
         self.kernel_asked = native.checked_kernel_name(kernel)
-        if self.kernel_asked == "compiled" and (n_envs, n_players) == (1, 1):
+        self.fits_compiled_step = (n_envs, n_players) == (1, 1) and type(self) is HumanLikeBodies
+        if self.kernel_asked == "compiled" and self.fits_compiled_step:
             one_humanlike.Compiled.resolve("compiled")  # refused here, not at the first step
         self.model = build_humanlike_world(n_envs, n_players, dt)
         self.data = mujoco.MjData(self.model)
@@ -132,7 +139,7 @@ class HumanLikeBodies(MjDataViews):
         self._sets: dict[tuple[int, ...], tuple] = {}  # _set_arrays of each saturated set
         self._constants = np.concatenate([self.lo, self.hi, self._joint_max_rate, [
             dt, 2.0 * BRAKE_SHARE, MAX_JOINT_SPEED, *self._hips_lo, *self._hips_hi,
-            self._forward_one, self.hips_height]])  # the compiled step's (one_humanlike)
+            self._forward_one, self.hips_height, ACTIVE_SET_ROUNDS]])  # one_humanlike's
         self._dirty = True  # kinematics must be recomputed before they are read
         self._sync_mocap()
         self._sync()
@@ -143,9 +150,10 @@ class HumanLikeBodies(MjDataViews):
     @property
     def kernel(self) -> str:
         """What runs one player's physics steps in this process: "compiled" or "python" (a
-        batch: its array code, "python")."""
-        one = self._one and one_humanlike.Compiled.resolve(self.kernel_asked) is not None
-        return "compiled" if one else "python"
+        batch, or a subclass: "python", whatever ``kernel`` asked for)."""
+        compiled = (self.fits_compiled_step
+                    and one_humanlike.Compiled.resolve(self.kernel_asked) is not None)
+        return "compiled" if compiled else "python"
 
     def _bind_views(self) -> None:
         """Views into MuJoCo's memory (players are env-major and contiguous in every array),
@@ -211,7 +219,7 @@ class HumanLikeBodies(MjDataViews):
         ``mj_step``) so that afterwards the kinematics, inertia and bias forces describe the new
         state: the rulebook reads the face there, and the next servo solve needs them."""
         self._sync()
-        if self._one:
+        if self.fits_compiled_step:
             compiled = one_humanlike.Compiled.resolve(self.kernel_asked)
             if compiled is not None:
                 compiled.physics_step(

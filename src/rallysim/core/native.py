@@ -114,24 +114,19 @@ DGESV_NAMES = ("scipy_dgesv_64_", "dgesv_64_")
 
 
 def numpy_dgesv() -> Any:
-    """LAPACK's ``dgesv`` (all 8 arguments pointers; integers 64-bit) from the library that
-    NumPy's ``linalg`` loaded, found among the process's mapped libraries."""
-    import numpy.linalg  # noqa: F401  (maps its LAPACK into the process)
+    """LAPACK's ``dgesv`` (all 8 arguments pointers; integers 64-bit), looked up through
+    NumPy's own ``linalg`` extension, whose symbol lookup searches the libraries it links: the
+    function ``numpy.linalg.solve`` calls."""
+    from numpy.linalg import _umath_linalg
 
     try:
-        with open("/proc/self/maps") as maps:
-            paths = sorted({line.split()[-1] for line in maps
-                            if line.rstrip().endswith(".so") or ".so." in line})
+        lib = ctypes.CDLL(_umath_linalg.__file__)
     except OSError as exc:
-        raise Unavailable(f"this process's libraries cannot be listed: {exc}") from None
-    for path in paths:
-        if "blas" not in os.path.basename(path).lower() and "lapack" not in path.lower():
-            continue
-        lib = ctypes.CDLL(path)
-        for name in DGESV_NAMES:
-            if hasattr(lib, name):
-                function = getattr(lib, name)
-                function.argtypes, function.restype = [ctypes.c_void_p] * 8, None
-                return function
-    raise Unavailable("NumPy's LAPACK has no 64-bit-integer dgesv among this process's "
-                      f"libraries ({', '.join(DGESV_NAMES)})")
+        raise Unavailable(f"NumPy's linalg extension cannot be opened: {exc}") from None
+    for name in DGESV_NAMES:
+        if hasattr(lib, name):
+            function = getattr(lib, name)
+            function.argtypes, function.restype = [ctypes.c_void_p] * 8, None
+            return function
+    raise Unavailable("NumPy's LAPACK has no 64-bit-integer dgesv "
+                      f"({', '.join(DGESV_NAMES)})")

@@ -26,8 +26,10 @@ from rallysim.core import native, one_game, rules
 from rallysim.core.one_game import OneGame
 from rallysim.core.shuttle import GRAVITY, PaperShuttle
 
-# ``constants`` layout: lo, hi, rate (8 each), then these
+# ``constants`` layout (``HumanLikeBodies._constants``): lo, hi, rate (8 each), then these
 DT, BRAKE, MAX_SPEED, HIPS_LO, HIPS_HI, FORWARD, HIPS_HEIGHT = 24, 25, 26, 27, 29, 31, 32
+ROUNDS = 33  # of the active set
+N_CONSTANTS = 34
 
 
 def row_sums8(p: np.ndarray, out: np.ndarray) -> None:
@@ -40,7 +42,7 @@ def row_sums8(p: np.ndarray, out: np.ndarray) -> None:
 
 def _solve_with(dgesv: Callable) -> Callable:
     """``solve(A, r, u)``: u = A^-1 r for an (8, 8) A, by ``dgesv`` on A in Fortran order, as
-    NumPy's ``linalg.solve`` copies it."""
+    NumPy's ``linalg.solve`` copies it (NaN where A is singular, as NumPy's gufunc gives)."""
 
     def solve(A, r, u):
         a = np.empty(64)
@@ -53,12 +55,15 @@ def _solve_with(dgesv: Callable) -> Callable:
         ipiv = np.empty(8, np.int64)
         dgesv(ints[0:].ctypes.data, ints[1:].ctypes.data, a.ctypes.data, ints[2:].ctypes.data,
               ipiv.ctypes.data, u.ctypes.data, ints[3:].ctypes.data, ints[4:].ctypes.data)
+        if ints[4] != 0:  # a singular system: NumPy's gufunc gives NaN
+            for i in range(8):
+                u[i] = np.nan
 
     return solve
 
 
 def _physics_step_with(mj_step1: Callable, mj_step2: Callable, solve: Callable,
-                       row_sums: Callable, rounds: int) -> Callable:
+                       row_sums: Callable) -> Callable:
     """``physics_step(model, data, <the bodies' arrays>, constants)``: ``HumanLikeBodies``'s
     ``_servo_one``, ``mj_step2``, ``_joint_stops_one``, ``_move_hips_one`` and ``mj_step1``, in
     their order, with the same operations (see those methods for the why of each)."""
@@ -103,7 +108,7 @@ def _physics_step_with(mj_step1: Callable, mj_step2: Callable, solve: Callable,
             bound, r, u, sums = np.empty(8), np.empty(8), np.empty(8), np.empty(8)
             A, masked = np.empty((8, 8)), np.empty((8, 8))
             new = np.empty(8, np.int64)
-            for _ in range(rounds):
+            for _ in range(int(k[ROUNDS])):
                 for j in range(8):
                     held[j] = side[j] != 0
                     bound[j] = float(side[j]) * lim[j]
@@ -137,13 +142,17 @@ def _physics_step_with(mj_step1: Callable, mj_step2: Callable, solve: Callable,
         mj_step2(model, data)
         # -- _joint_stops_one
         top = k[MAX_SPEED]
+        over = np.empty(8, np.bool_)
         stopped = False
         for i in range(8):
-            if qpos[i] > k[8 + i] or qpos[i] < k[i]:
-                stopped = True
+            over[i] = qpos[i] > k[8 + i] or qpos[i] < k[i]
+            stopped = stopped or over[i]
+        if stopped:  # every joint clamped (a -0.0 at a stop of +0.0 becomes +0.0)
+            for i in range(8):
                 x = qpos[i] if qpos[i] > k[i] else k[i]
                 qpos[i] = x if x < k[8 + i] else k[8 + i]
-                qvel[i] = 0.0
+                if over[i]:
+                    qvel[i] = 0.0
         fast = False
         for i in range(8):
             fast = fast or qvel[i] > top or qvel[i] < -top
@@ -224,10 +233,7 @@ def _compile() -> Callable:
     row_sums = numba.njit(row_sums8)
     solve = numba.njit(_solve_with(native.numpy_dgesv()))
     _probe(numba, row_sums, solve)
-    from rallysim.core.humanlike import ACTIVE_SET_ROUNDS
-
-    physics_step = numba.njit(_physics_step_with(step1, step2, solve, row_sums,
-                                                 ACTIVE_SET_ROUNDS))
+    physics_step = numba.njit(_physics_step_with(step1, step2, solve, row_sums))
     step_apart = numba.njit(rules.step_apart_with(numba.njit(rules.apart)))
     steps = Steps(physics_step, numba.njit(_free_steps_with(physics_step, step_apart,
                                                             *one_game.compiled_helpers())))
@@ -236,21 +242,22 @@ def _compile() -> Callable:
 
 
 def _dry_run(steps: Steps) -> None:
-    """Compile both functions now, for the arrays of a game's types, by a call of the free
+    """Compile both functions now, for arrays of the types a game's are, by a call of the free
     steps that runs no physics step (``physics_step`` is compiled with it, for the same
-    arrays), so that a failure shows here, where the lanes code can take over."""
-    from rallysim.core.game import Game
-    from rallysim.core.humanlike import HumanLikeBodies
-
-    game = Game(1, 1, bodies=HumanLikeBodies(1, 1, kernel="python"))
-    game._one._call(steps.free_steps, game, 0)
+    arrays), so that a failure shows here, where the Python code can take over."""
+    f = np.zeros
+    one = (f((1, 1, 8)), f((1, 1, 8)), f((1, 1, 8), np.int8), f((1, 1, 3)), f((1, 1, 3)),
+           f((1, 1, 3, 3)), f((1, 1, 2)), f((1, 1, 2)), f((1, 1, 2)), f((1, 1), bool),
+           f((1, 1, 3)), f(N_CONSTANTS))
+    counts = f((1, 1), np.int64)
+    steps.free_steps(0, 0, f(36), f((1, 1, 8, 8), np.int64), f(8), f(8), f(8), f(8), *one,
+                     f((6, 1)), f((1, 3, 3)), f(1), f((1, 1)), counts, counts, f((1, 1), bool),
+                     f(18), 0, False)
 
 
 def _probe(numba, row_sums: Callable, solve: Callable) -> None:
     """The compiled row sums and solve against NumPy's on random systems of the servo's kind
     (inertia-like blocks mixed with -I columns, entries over many magnitudes)."""
-    from rallysim.core.humanlike import _solve
-
     rng = np.random.default_rng(0)
     n = 2000
     p = rng.standard_normal((n, 8, 8)) * 10.0 ** rng.integers(-9, 6, (n, 8, 8))
@@ -272,7 +279,8 @@ def _probe(numba, row_sums: Callable, solve: Callable) -> None:
     sums, u = run(p, A, r)
     if sums.tobytes() != np.add.reduce(p, axis=-1).tobytes():
         raise native.Unavailable("the compiled row sums differ from NumPy's on this machine")
-    if u.tobytes() != np.stack([_solve(a, b) for a, b in zip(A, r, strict=True)]).tobytes():
+    numpy_u = np.stack([np.linalg.solve(a, b[:, None])[:, 0] for a, b in zip(A, r, strict=True)])
+    if u.tobytes() != numpy_u.tobytes():
         raise native.Unavailable("the compiled solve differs from NumPy's on this machine")
 
 
@@ -294,9 +302,9 @@ class OneHumanLikeGame(OneGame):
 
     @staticmethod
     def fits(game: Any) -> bool:
-        from rallysim.core.humanlike import HumanLikeBodies
-
-        return (game.ops.scalar and type(game.bodies) is HumanLikeBodies
+        """Whether ``game`` is one game of one player that the compiled step may run (the
+        bodies say so: ``HumanLikeBodies.fits_compiled_step``) with the paper flight."""
+        return (game.ops.scalar and getattr(game.bodies, "fits_compiled_step", False)
                 and type(game.flight) is PaperShuttle)
 
     def __init__(self, game: Any) -> None:
@@ -311,7 +319,7 @@ class OneHumanLikeGame(OneGame):
         return game.bodies.kernel
 
     def run(self, game: Any, steps: int) -> None:
-        if Compiled.resolve(game.bodies.kernel_asked) is None:
+        if game.bodies.kernel == "python":
             game._run_lanes(steps)
         else:
             super().run(game, steps)

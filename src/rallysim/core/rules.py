@@ -113,7 +113,12 @@ def record_landings(state: RallyState, envs: np.ndarray) -> None:
 
 def landing_side(point: np.ndarray) -> np.ndarray:
     """The player (0 or 1) whose half holds each world landing ``point`` (k, 3)."""
-    return (point[:, 0] > 0).astype(np.int64)
+    return in_far_half(point[:, 0]).astype(np.int64)
+
+
+def in_far_half(x: Any) -> Any:
+    """Whether world ``x`` (an array, or one number) is in player 1's half."""
+    return x > 0
 
 
 # -- competitive scoring ------------------------------------------------------------------------
