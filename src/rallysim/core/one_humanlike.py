@@ -325,12 +325,9 @@ class OneHumanLikeGame(OneGame):
             super().run(game, steps)
 
     def _steps(self, game: Any, steps: int) -> tuple[int, bool, tuple, tuple]:
-        return self._call(Compiled.function.free_steps, game, steps)
-
-    def _call(self, free_steps: Callable, game: Any, steps: int) -> tuple[int, bool, tuple, tuple]:
         b, sh, ev = game.bodies, game.shuttle, game.events
         b._sync()
-        return free_steps(
+        return Compiled.function.free_steps(
             b.model._address, b.data._address, b._mass, b._m_index, b._flat_qpos, b._flat_qvel,
             b._flat_ctrl, b._flat_bias, b.target, b.torque_limit, b._side, b._face0,
             b._face_pos, b._face_mat, b.hips, b._hips_step, b.hips_velocity, b.base_moved,
