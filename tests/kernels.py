@@ -30,20 +30,26 @@ def same_bits(x: Any, y: Any) -> bool:
 
 
 def counting(game: Any) -> dict[str, int]:
-    """Count the physics steps the fused path runs and those the lanes code runs."""
-    counts = {"fused": 0, "lanes": 0}
-    free, lanes = game._one._free_steps, game._step_lanes
+    """Count the physics steps the fused path runs (free: "fused"; out of play: "held") and
+    those the lanes code runs ("lanes"; held steps handed to it count in both)."""
+    counts = {"fused": 0, "held": 0, "lanes": 0}
+    free, held, lanes = game._one._free_steps, game._one._held_steps, game._step_lanes
 
     def fused_steps(g, steps):
         run = free(g, steps)
         counts["fused"] += run
         return run
 
+    def held_steps(g, steps):
+        counts["held"] += steps
+        held(g, steps)
+
     def lanes_step(g, ops):
         counts["lanes"] += 1
         lanes(g, ops)
 
-    game._one._free_steps, game._step_lanes = fused_steps, lanes_step
+    game._one._free_steps, game._one._held_steps = fused_steps, held_steps
+    game._step_lanes = lanes_step
     return counts
 
 

@@ -136,7 +136,8 @@ class SimpleBodies(MjDataViews):
     def reset(self, envs: np.ndarray, base_x: np.ndarray, theta: np.ndarray | float = 0.0) -> None:
         """Place the players of ``envs`` at own-frame ``base_x`` (len(envs), P), arms at ``theta``.
         """
-        self.base_x[envs] = np.clip(base_x, *self.base_range)
+        lo, hi = self.base_range
+        self.base_x[envs] = np.minimum(np.maximum(base_x, lo), hi)  # np.clip's result, cheaper
         self.theta[envs] = theta
         self.omega[envs] = 0.0
         self.torque[envs] = 0.0

@@ -5,11 +5,14 @@ trainers step. ``Game._step_lanes`` runs it on scalar lanes (``rallysim.core.lan
 reading and writing lanes and calling the backend's functions cost several times the arithmetic.
 ``OneSimpleGame.run`` does the same IEEE-754 operations in the same order on local variables,
 for the steps in which the shuttle is in play and stays apart from every box
-(``Game._apart``): nearly all of them. A step in which it comes near a box is judged by
-``Game._judge`` (the hits, the net, the landing) and a step out of play runs
-``Game._step_lanes`` whole, so every rule stays written once; only the motion of a free step
-(``SimpleBodies.step_lanes``, ``PaperShuttle.fly``, ``Game._observe``, ``Game._shape`` and the
-floor, net and face tests of ``Game._apart``) is restated here, once, in ``_free_steps_with``.
+(``Game._apart``): nearly all of them, and for the steps out of play after a landing (the
+bodies move, the shuttle is held). A step in which it comes near a box is judged by
+``Game._judge`` (the hits, the net, the landing), so every rule stays written once; only the
+motion of a free or held step (``SimpleBodies.step_lanes``, ``PaperShuttle.fly``,
+``Game._observe``, ``Game._shape`` and the floor, net and face tests of ``Game._apart``) is
+restated here, once, in ``_free_steps_with``; and the player's scaled observation
+(``simple_obs.raw_observation_lanes`` with ``ScalarOps.observations``), in
+``_observation_with``, which runs compiled only.
 
 That function runs as Python, or compiled by Numba (the ``fast`` extra; Linux, where MuJoCo's
 library is ``libmujoco.so``) where the compiled sine and cosine give NumPy's float64 bits (NumPy's
@@ -24,7 +27,7 @@ and a batch's env 0 bit-identical state by state.
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Any
+from typing import Any, NamedTuple
 
 import mujoco
 import numpy as np
@@ -88,14 +91,17 @@ def _free_steps_with(mj_step: Callable, sin: Callable, cos: Callable, step_apart
     box test of ``Game._apart``; the rest ``HELPERS``, which one HUMAN-LIKE game's steps call
     too).
 
-    ``free_steps(model, data, <the state's arrays>, k, steps, shaping)`` runs up to ``steps``
-    steps from and to the arrays until one needs judging; ``k`` holds ``OneSimpleGame``'s
-    constants. Returns the steps run, whether the last needs judging, and the points the box
-    test of that step started from (the face's frame, the world)."""
+    ``free_steps(model, data, <the state's arrays>, k, steps, shaping, live)`` runs up to
+    ``steps`` steps from and to the arrays until one needs judging; ``k`` holds
+    ``OneSimpleGame``'s constants. Returns the steps run, whether the last needs judging, and
+    the points the box test of that step started from (the face's frame, the world). A game
+    out of play (``live`` False: ``Game._step_lanes``'s held game) runs all ``steps``: the
+    bodies move, the shuttle keeps its position and velocity (its shot time runs on), nothing
+    is judged and nothing counts toward the shaping (its gap is kept up)."""
 
     def free_steps(model, data, torque, mocap, theta_a, omega_a, base_x_a, theta0_a, moved_a,
                    base_step_a, target_a, neg_limit_a, torque_limit_a, motion, q, shot_time_a,
-                   gap_a, good_a, bad_a, has_hit_a, k, steps, shaping):
+                   gap_a, good_a, bad_a, has_hit_a, k, steps, shaping, live):
         lo, hi, inv_dt, rate, drive, limit = k[0], k[1], k[2], k[3], k[4], k[5]
         fo, pivot_z, dt, fall, f, fwd, top = k[6], k[7], k[8], k[9], k[10], k[11], k[12]
         net_lo, net_hi = (k[13], k[14], k[15]), (k[16], k[17], k[18])
@@ -105,6 +111,8 @@ def _free_steps_with(mj_step: Callable, sin: Callable, cos: Callable, step_apart
         base_x, theta, omega = base_x_a.item(), theta_a.item(), omega_a.item()
         px, py, pz, vx, vy, vz, qx, qy, qz, shot_time, gap, good, bad, todo = load(
             motion, q, shot_time_a, gap_a, good_a, bad_a, has_hit_a)
+        todo = todo and live
+        held = (px, py, pz, vx, vy, vz)
         face, world = (qx, qy, qz), (px, py, pz)  # the points the box test starts from
         face0, world0 = face, world
         theta0, moved = theta, False
@@ -134,6 +142,8 @@ def _free_steps_with(mj_step: Callable, sin: Callable, cos: Callable, step_apart
                 omega = 0.0
                 theta_a[0, 0], omega_a[0, 0] = theta, omega
             px, py, pz, vx, vy, vz, shot_time = fly(px, py, pz, vx, vy, vz, shot_time, fall, f, dt)
+            if not live:
+                px, py, pz, vx, vy, vz = held
             # Game._observe and SimpleBodies.face_frame (the game's fwd is the bodies')
             ox = fwd * px
             s, c = sin(theta), cos(theta)
@@ -143,8 +153,8 @@ def _free_steps_with(mj_step: Callable, sin: Callable, cos: Callable, step_apart
             if shaping:
                 good, bad, gap = shape(abs(ox - base_x), moved, todo, good, bad, gap)
             face, world = (qx, qy, qz), (px, py, pz)
-            if not step_apart(face0, face, world0, world, top, net_lo, net_hi, face_lo,
-                              face_hi):
+            if live and not step_apart(face0, face, world0, world, top, net_lo, net_hi,
+                                       face_lo, face_hi):
                 judged = True
                 break
         base_x_a[0, 0], theta0_a[0, 0], moved_a[0, 0] = base_x, theta0, moved
@@ -155,14 +165,56 @@ def _free_steps_with(mj_step: Callable, sin: Callable, cos: Callable, step_apart
     return free_steps
 
 
+def _observation_with(sin: Callable, cos: Callable) -> Callable:
+    """One SIMPLE player's scaled observation, calling these sine and cosine: the 16 values
+    of ``simple_obs.raw_observation_lanes`` for one game, then the values of ``extra``, each
+    mapped by ``ScalarOps.observations`` ((x - centre) / scale, clipped into [-1, 1] as
+    ``np.clip`` clips: NaN stays NaN) and given as float32, (1, 16 + len(extra)). ``k`` holds
+    ``OneSimpleGame``'s observation constants: the player's fwd, base height and face
+    offset."""
+
+    def observation(theta_a, omega_a, base_x_a, motion, extra, k, centre, scale):
+        fwd, base_z, fo = k[0], k[1], k[2]
+        theta, omega = theta_a[0, 0], omega_a[0, 0]
+        s, c = sin(theta), cos(theta)
+        half = 0.5 * theta
+        raw = np.empty(16 + extra.size)
+        raw[0], raw[1], raw[2] = base_x_a[0, 0], 0.0, base_z
+        raw[3], raw[4], raw[5], raw[6] = cos(half), 0.0, sin(half), 0.0
+        raw[7], raw[8], raw[9] = fo * omega * c, 0.0, -fo * omega * s
+        raw[10], raw[11], raw[12] = fwd * motion[0, 0], fwd * motion[1, 0], motion[2, 0]
+        raw[13], raw[14], raw[15] = fwd * motion[3, 0], fwd * motion[4, 0], motion[5, 0]
+        for i in range(extra.size):
+            raw[16 + i] = extra[i]
+        out = np.empty((1, raw.size), np.float32)
+        for i in range(raw.size):
+            x = (raw[i] - centre[i]) / scale[i]
+            if x < -1.0:
+                x = -1.0
+            if x > 1.0:
+                x = 1.0
+            out[0, i] = x
+        return out
+
+    return observation
+
+
 PYTHON_FREE_STEPS = _free_steps_with(mujoco.mj_step, SCALARS.sin, SCALARS.cos, rules.step_apart)
-# this process's compiled kernel, made on first use (``compiled_free_steps``)
+# this process's compiled kernels, made on first use (``compiled_free_steps``)
 Compiled = native.Kernel(lambda: _compile())
+
+
+class Kernels(NamedTuple):
+    """The compiled functions of one SIMPLE game."""
+
+    free_steps: Callable  # ``_free_steps_with``'s
+    observation: Callable  # ``_observation_with``'s
 
 
 def compiled_free_steps() -> Callable | None:
     """The compiled kernel, or None where it cannot be had (``Compiled.why_not`` says why)."""
-    return Compiled.get()
+    kernels = Compiled.get()
+    return None if kernels is None else kernels.free_steps
 
 
 def _compile() -> Callable:
@@ -189,8 +241,9 @@ def _compile() -> Callable:
         raise native.Unavailable("Numba's sine or cosine differ from NumPy's on this machine")
     step_apart = numba.njit(rules.step_apart_with(numba.njit(rules.apart)))
     free_steps = numba.njit(_free_steps_with(step, sin, cos, step_apart, *compiled_helpers()))
-    _dry_run(free_steps)
-    return free_steps
+    observation = numba.njit(_observation_with(sin, cos))
+    _dry_run(free_steps, observation)
+    return Kernels(free_steps, observation)
 
 
 def compiled_helpers() -> tuple[Callable, ...]:
@@ -199,12 +252,16 @@ def compiled_helpers() -> tuple[Callable, ...]:
     return tuple(numba.njit(helper) for helper in HELPERS)
 
 
-def _dry_run(free_steps: Callable) -> None:
-    """Compile ``free_steps`` now, for arrays of the types a game's are, by a call that runs no
-    physics step (so a failure shows here, where the Python kernel can take over)."""
+def _dry_run(free_steps: Callable, observation: Callable) -> None:
+    """Compile the kernels now, for arrays of the types a game's are (the observation's maps
+    read-only, as the tasks' are), by calls that run no physics step (so a failure shows
+    here, where the Python kernel can take over)."""
     f, b, i = np.zeros((1, 1)), np.zeros((1, 1), bool), np.zeros((1, 1), np.int64)
     free_steps(0, 0, f, np.zeros((1, 1, 3)), f, f, f, f, b, f, f, f, f, np.zeros((6, 1)),
-               np.zeros((1, 3, 3)), np.zeros(1), f, i, i, b, np.zeros(25), 0, True)
+               np.zeros((1, 3, 3)), np.zeros(1), f, i, i, b, np.zeros(25), 0, True, True)
+    maps = np.ones(17)
+    maps.flags.writeable = False
+    observation(f, f, f, np.zeros((6, 1)), np.zeros(1), np.zeros(3), maps, maps)
 
 
 class OneGame:
@@ -218,10 +275,13 @@ class OneGame:
         done = 0
         while done < steps:
             if not (state.in_play.item() and active.item()):
-                # out of play until the next reset: the rest of the decision on the lanes
-                game._run_lanes(steps - done)
+                self._held_steps(game, steps - done)  # the rest of the decision
                 return
             done += self._free_steps(game, steps - done)
+
+    def _held_steps(self, game: Any, steps: int) -> None:
+        """``steps`` steps of a game out of play (until its next reset): the lanes code's."""
+        game._run_lanes(steps)
 
     def _free_steps(self, game: Any, steps: int) -> int:
         """Up to ``steps`` steps of a live game, until one needs judging (judged here too);
@@ -273,11 +333,25 @@ class OneSimpleGame(OneGame):
                   float(b.forward.item()),  # (fixed: player 0 faces +x)
                   game._floor_top, *net_lo, *net_hi, *face_lo, *face_hi)
         self.k_array = np.array(self.k)
+        self.observation_k = np.array([self.k[11], b.base_z, b.face_offset])
 
     def _free_steps_function(self) -> Callable | None:
         """The compiled kernel if it runs here, else None (Python); ``RuntimeError`` where the
         compiled one was asked for and cannot be had."""
-        return Compiled.resolve(self.asked)
+        kernels = Compiled.resolve(self.asked)
+        return None if kernels is None else kernels.free_steps
+
+    def observation(self, game: Any, extra: np.ndarray, centre: np.ndarray,
+                    scale: np.ndarray) -> np.ndarray | None:
+        """The player's observation followed by the values ``extra`` (E,), scaled and clipped
+        (``_observation_with``), where the compiled kernel runs; None where Python does (the
+        caller's lanes code gives the same bits)."""
+        kernels = Compiled.resolve(self.asked)
+        if kernels is None:
+            return None
+        b = game.bodies
+        return kernels.observation(b.theta, b.omega, b.base_x, game.shuttle.motion, extra,
+                                   self.observation_k, centre, scale)
 
     @property
     def kernel(self) -> str:
@@ -287,7 +361,11 @@ class OneSimpleGame(OneGame):
     def kernel_in(self, game: Any) -> str:
         return self.kernel
 
-    def _steps(self, game: Any, steps: int) -> tuple[int, bool, tuple, tuple]:
+    def _held_steps(self, game: Any, steps: int) -> None:
+        self._steps(game, steps, False)
+
+    def _steps(self, game: Any, steps: int, live: bool = True
+               ) -> tuple[int, bool, tuple, tuple]:
         b, sh, ev = game.bodies, game.shuttle, game.events
         free_steps = self._free_steps_function()
         if free_steps is None:
@@ -298,4 +376,4 @@ class OneSimpleGame(OneGame):
             model, data, b.torque, b.mocap, b.theta, b.omega, b.base_x, b._theta0,
             b.base_moved, b._base_step, b.target, b._neg_limit, b.torque_limit, sh.motion,
             game._q, sh.shot_time, game._gap, ev.approach_good, ev.approach_bad,
-            game.state.has_hit, k, steps, game.shaping)
+            game.state.has_hit, k, steps, game.shaping, live)

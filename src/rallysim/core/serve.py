@@ -45,7 +45,7 @@ class MachineServe:
     ``rules.SERVE_DRAWS`` uniforms per game."""
 
     def __call__(self, rngs: Rngs, receiver: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        u = np.stack([r.random(rules.SERVE_DRAWS) for r in rngs])
+        u = np.array([r.random(rules.SERVE_DRAWS) for r in rngs])
         return rules.sample_serve(u, receiver)
 
 

@@ -49,6 +49,8 @@ class TaskEnv(gym.Env):
         self.observation_space, self.action_space = box_spaces(obs_size, action_size)
         self.task = task
         self._done = True
+        # the info keys given every step
+        self._info_keys = ("hit", "net_touch", "landed", self.goal_key, *self.reward_keys)
 
     def _frame(self, view: EnvView, env: int) -> np.ndarray | None:
         raise NotImplementedError
@@ -88,10 +90,18 @@ class TaskEnv(gym.Env):
     def _info(self, values: dict) -> dict:
         """The info of the task's values. Event values appear only when their event happened
         (Gymnasium's single-env habit)."""
-        info = {k: _first(values[k])
-                for k in ("hit", "net_touch", "landed", self.goal_key, *self.reward_keys)}
-        for happened, keys in ((info["hit"], self.hit_keys),
-                               (info["landed"], self.landing_keys)):
-            if happened:
-                info.update((k, _first(values[k])) for k in keys)
+        info: dict[str, Any] = {}
+        _put_firsts(info, values, self._info_keys)
+        if info["hit"]:
+            _put_firsts(info, values, self.hit_keys)
+        if info["landed"]:
+            _put_firsts(info, values, self.landing_keys)
         return info
+
+
+def _put_firsts(info: dict, values: dict, keys: tuple[str, ...]) -> None:
+    """``info[k] = _first(values[k])`` for ``keys`` (written out: this runs every step, and
+    most of one game's values are already Python numbers)."""
+    for k in keys:
+        v = values[k]
+        info[k] = _first(v) if v.__class__ is np.ndarray else v

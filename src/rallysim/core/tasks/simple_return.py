@@ -82,12 +82,15 @@ class ReturnTask:
         base_x = given.get("base_x", np.array([r.uniform(*b.base_range) for r in rngs]))
         theta = given.get("arm_angle", np.array([r.uniform(-limit, limit) for r in rngs]))
         # the original builds: robots stay where the last episode left them
-        keep = self._started[envs] & (self.keep_bodies and not given)
-        carry = envs[keep]
-        base_x[keep], theta[keep] = b.base_x[carry, 0], b.theta[carry, 0]
-        omega = b.omega[carry, 0].copy()
+        carry = None
+        if self.keep_bodies and not given:
+            keep = self._started[envs]
+            carry = envs[keep]
+            base_x[keep], theta[keep] = b.base_x[carry, 0], b.theta[carry, 0]
+            omega = b.omega[carry, 0].copy()
         self.game.reset(envs, receiver=0, base_x=base_x[:, None], theta=theta[:, None])
-        b.omega[carry, 0] = omega
+        if carry is not None:
+            b.omega[carry, 0] = omega
         self._started[envs] = True
         # (drawn even when the option gives the goal, so that the stream does not shift)
         if self._planner is None:
@@ -118,6 +121,10 @@ class ReturnTask:
 
     def observe(self) -> np.ndarray:
         game = self.game
+        if game._one is not None:  # one game: compiled where it can be (rallysim.core.one_game)
+            compiled = game._one.observation(game, self.goal, OBS_CENTRE, OBS_SCALE)
+            if compiled is not None:
+                return compiled
         lanes = [*raw_observation_lanes(game), game.ops.read(self.goal[:, None])]
         return game.ops.observations(lanes, (self.n, 1), OBS_CENTRE, OBS_SCALE)[:, 0]
 
