@@ -26,7 +26,10 @@ from tests.kernels import NEEDS_COMPILED_SIMPLE, counting, play, same_bits
 
 def _state(env: SimpleReturnEnv) -> list[np.ndarray]:
     """Every array of the game's state and of its last decision's events."""
-    game = env.task.game
+    return _game_state(env.task.game)
+
+
+def _game_state(game: Game) -> list[np.ndarray]:
     b, sh, st, d = game.bodies, game.shuttle, game.state, game.bodies.data
     return [d.qpos, d.qvel, d.ctrl, d.mocap_pos, b.base_x, b._theta0, b.base_moved, b.target,
             b.torque_limit, sh.motion, sh.shot_time, sh.shot_speed, game._q, game._gap,
@@ -232,7 +235,8 @@ def test_the_compiled_observation_is_the_lanes_codes():
     clipped = {"low": 0, "high": 0, "nan": 0}
     for _ in range(3000):
         values = rng.normal(0.0, 10.0 ** rng.integers(-2, 3), 10)
-        values[rng.integers(10)] = special[rng.integers(len(special))]
+        # (not the arm angle: the probe holds sine and cosine to NumPy's on finite angles)
+        values[rng.integers(1, 10)] = special[rng.integers(len(special))]
         b.theta[0, 0], b.omega[0, 0], b.base_x[0, 0] = values[:3]
         sh.motion[:, 0] = 10.0 * values[3:9]
         task.goal[0] = values[9]
@@ -246,6 +250,80 @@ def test_the_compiled_observation_is_the_lanes_codes():
         clipped["high"] += int((got == 1.0).sum())
         clipped["nan"] += int(np.isnan(got).sum())
     assert min(clipped.values()) > 300, clipped
+
+
+@NEEDS_COMPILED
+def test_the_compiled_observation_with_other_maps():
+    """A zero scale gives the lanes code's inf and NaN; maps of the wrong length are refused
+    (the compiled code does not check its indices)."""
+    from rallysim.core.lanes import SCALARS
+    from rallysim.core.simple_obs import raw_observation_lanes
+    from rallysim.core.tasks.simple_return import OBS_CENTRE, OBS_SCALE
+
+    env = SimpleReturnEnv()
+    env.reset(seed=3)
+    game = env.task.game
+    one = OneSimpleGame(game, "compiled")
+    scale = OBS_SCALE.copy()
+    scale[[0, 1, 7, 16]] = 0.0  # x / 0 and 0 / 0
+    scale.flags.writeable = False  # (as the task's: the signature the dry run compiled)
+    extra = np.array([0.25])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        lanes = SCALARS.observations([*raw_observation_lanes(game), 0.25], (1, 1), OBS_CENTRE,
+                                     scale)[:, 0]
+        got = one.observation(game, extra, OBS_CENTRE, scale)
+    assert same_bits(got, lanes) and np.isnan(got).sum() >= 1 and np.isinf(got).sum() == 0
+    with pytest.raises(ValueError, match="one entry per value"):
+        one.observation(game, np.zeros(2), OBS_CENTRE, OBS_SCALE)
+
+
+@pytest.mark.parametrize("kernel", KERNELS)
+def test_held_and_frozen_steps_replay_the_lanes_code(kernel):
+    """One game stepped on after its landings (whole decisions out of play) and now and then
+    frozen by ``active``: the fused steps give the lanes code's state."""
+    fused, lanes = Game(1, 1, seed=5, shaping=True), Game(1, 1, seed=5, shaping=True)
+    fused._one, lanes._one = OneSimpleGame(fused, kernel), None
+    counts = counting(fused)
+    rng = np.random.default_rng(5)
+    for game in (fused, lanes):
+        game.reset(np.array([0]))
+    landed = frozen = 0
+    for step in range(600):
+        a = rng.uniform(-1, 1, (1, 1, 3))
+        active = np.array([rng.uniform() > 0.2])
+        fused.step(a, active)
+        lanes.step(a, active)
+        for x, y in zip(_game_state(fused), _game_state(lanes), strict=True):
+            assert same_bits(x, y), step
+        frozen += not active[0]
+        landed += fused.events.landed.item()
+        if step % 40 == 39:
+            for game in (fused, lanes):
+                game.reset(np.array([0]))
+    assert landed >= 5 and frozen >= 60 and counts["held"] >= 500 and counts["lanes"] == 0, (
+        landed, frozen, counts)
+
+
+@pytest.mark.parametrize("kernel", KERNELS)
+def test_kept_bodies_and_reachable_goals_replay_a_batch(kernel):
+    single = _with_kernel(SimpleReturnEnv(keep_bodies=True, goals="reachable"), kernel)
+    batch = SimpleReturnVectorEnv(2, keep_bodies=True, goals="reachable",
+                                  autoreset_mode="same_step")
+    obs, _ = single.reset(seed=6)
+    obs_b, _ = batch.reset(seed=6)
+    assert same_bits(obs, obs_b[0])
+    rng = np.random.default_rng(6)
+    episodes = 0
+    for step in range(400):
+        a = rng.uniform(-1, 1, 3).astype(np.float32)
+        obs, r, term, trunc, _ = single.step(a)
+        obs_b, r_b, term_b, trunc_b, _ = batch.step(np.stack([a, a]))
+        assert same_bits(np.float64(r), r_b[0]) and (term, trunc) == (term_b[0], trunc_b[0])
+        if term or trunc:
+            episodes += 1
+            obs, _ = single.reset()
+        assert same_bits(obs, obs_b[0]), step
+    assert episodes >= 10
 
 
 @NEEDS_COMPILED

@@ -5,13 +5,15 @@ trainers step. ``Game._step_lanes`` runs it on scalar lanes (``rallysim.core.lan
 reading and writing lanes and calling the backend's functions cost several times the arithmetic.
 ``OneSimpleGame.run`` does the same IEEE-754 operations in the same order on local variables,
 for the steps in which the shuttle is in play and stays apart from every box
-(``Game._apart``): nearly all of them, and for the steps out of play after a landing (the
-bodies move, the shuttle is held). A step in which it comes near a box is judged by
-``Game._judge`` (the hits, the net, the landing), so every rule stays written once; only the
-motion of a free or held step (``SimpleBodies.step_lanes``, ``PaperShuttle.fly``,
-``Game._observe``, ``Game._shape`` and the floor, net and face tests of ``Game._apart``) is
-restated here, once, in ``_free_steps_with``; and the player's scaled observation
-(``simple_obs.raw_observation_lanes`` with ``ScalarOps.observations``), in
+(``Game._apart``): nearly all of them, and for the steps of a game out of play (after a
+landing, or held by ``Game.step``'s ``active``: the bodies move, the shuttle is held). A step
+in which the shuttle comes near a box is judged by ``Game._judge`` (the hits, the net, the
+landing), so the rules of play stay written once. What is restated here, once each, and held
+to the lanes code's bits by ``tests/test_one_game.py``: the motion of a free or held step
+(``SimpleBodies.step_lanes``, ``PaperShuttle.fly``, ``Game._observe``, ``Game._shape``, the
+floor, net and face tests of ``Game._apart``, and ``Game._step_lanes``'s holding of a shuttle
+out of play) in ``_free_steps_with``; and the player's scaled observation
+(``simple_obs.raw_observation_lanes`` with ``ScalarOps.observations``) in
 ``_observation_with``, which runs compiled only.
 
 That function runs as Python, or compiled by Numba (the ``fast`` extra; Linux, where MuJoCo's
@@ -179,6 +181,8 @@ def _observation_with(sin: Callable, cos: Callable) -> Callable:
         s, c = sin(theta), cos(theta)
         half = 0.5 * theta
         raw = np.empty(16 + extra.size)
+        if centre.size != raw.size or scale.size != raw.size:
+            raise ValueError("the observation's maps must have one entry per value")
         raw[0], raw[1], raw[2] = base_x_a[0, 0], 0.0, base_z
         raw[3], raw[4], raw[5], raw[6] = cos(half), 0.0, sin(half), 0.0
         raw[7], raw[8], raw[9] = fo * omega * c, 0.0, -fo * omega * s
@@ -213,15 +217,19 @@ class Kernels(NamedTuple):
 
 def compiled_free_steps() -> Callable | None:
     """The compiled kernel, or None where it cannot be had (``Compiled.why_not`` says why)."""
-    kernels = Compiled.get()
+    return _free_steps_of(Compiled.get())
+
+
+def _free_steps_of(kernels: Kernels | None) -> Callable | None:
     return None if kernels is None else kernels.free_steps
 
 
-def _compile() -> Callable:
+def _compile() -> Kernels:
     """``_free_steps_with`` compiled by Numba, calling MuJoCo's C ``mj_step`` with the model's
-    and data's addresses; ``native.Unavailable`` where Numba or MuJoCo's library is missing, or
-    where the compiled sine or cosine differ from NumPy's on a probe of angles (then the
-    compiled steps would not replay a batch bit for bit)."""
+    and data's addresses, and ``_observation_with``; ``native.Unavailable`` where Numba or
+    MuJoCo's library is missing, or where the compiled sine or cosine differ from NumPy's on a
+    probe of angles (then the compiled steps would not replay a batch bit for bit). Where
+    either fails to compile, neither runs: the Python code does, with the same results."""
     numba = native.numba_module()
     (step,) = native.mujoco_functions("mj_step")
     sin = numba.njit(lambda x: np.sin(x))
@@ -241,7 +249,8 @@ def _compile() -> Callable:
         raise native.Unavailable("Numba's sine or cosine differ from NumPy's on this machine")
     step_apart = numba.njit(rules.step_apart_with(numba.njit(rules.apart)))
     free_steps = numba.njit(_free_steps_with(step, sin, cos, step_apart, *compiled_helpers()))
-    observation = numba.njit(_observation_with(sin, cos))
+    # (NumPy's error model: a zero scale gives inf or NaN, as the lanes code's arrays do)
+    observation = numba.njit(error_model="numpy")(_observation_with(sin, cos))
     _dry_run(free_steps, observation)
     return Kernels(free_steps, observation)
 
@@ -265,9 +274,10 @@ def _dry_run(free_steps: Callable, observation: Callable) -> None:
 
 
 class OneGame:
-    """What the fused physics steps of one game share, whatever its player: ``run`` hands the
-    steps out of play to the lanes code (``Game._run_lanes``) and a step that needs judging to
-    ``Game._judge``; a subclass runs the free steps between (``_steps``)."""
+    """What the fused physics steps of one game share, whatever its player: ``run`` hands a
+    step that needs judging to ``Game._judge``; a subclass runs the free steps between
+    (``_steps``) and may run the steps out of play (``_held_steps``; by default the lanes
+    code's, ``Game._run_lanes``)."""
 
     def run(self, game: Any, steps: int) -> None:
         """``steps`` physics steps of ``game``, from and to its arrays."""
@@ -294,8 +304,8 @@ class OneGame:
         return run
 
     def _steps(self, game: Any, steps: int) -> tuple[int, bool, tuple, tuple]:
-        """The kernel's free steps: the steps run, whether the last needs judging, and the
-        points its box test started from (the face's frame, the world)."""
+        """The kernel's free steps of a game in play: the steps run, whether the last needs
+        judging, and the points its box test started from (the face's frame, the world)."""
         raise NotImplementedError
 
     def kernel_in(self, game: Any) -> str:
@@ -338,8 +348,7 @@ class OneSimpleGame(OneGame):
     def _free_steps_function(self) -> Callable | None:
         """The compiled kernel if it runs here, else None (Python); ``RuntimeError`` where the
         compiled one was asked for and cannot be had."""
-        kernels = Compiled.resolve(self.asked)
-        return None if kernels is None else kernels.free_steps
+        return _free_steps_of(Compiled.resolve(self.asked))
 
     def observation(self, game: Any, extra: np.ndarray, centre: np.ndarray,
                     scale: np.ndarray) -> np.ndarray | None:
@@ -362,6 +371,7 @@ class OneSimpleGame(OneGame):
         return self.kernel
 
     def _held_steps(self, game: Any, steps: int) -> None:
+        """``steps`` steps out of play, in the kernel (``_free_steps_with``'s ``live``)."""
         self._steps(game, steps, False)
 
     def _steps(self, game: Any, steps: int, live: bool = True

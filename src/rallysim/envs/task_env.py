@@ -41,6 +41,11 @@ class TaskEnv(gym.Env):
     reward_keys: tuple[str, ...] = ()  # the reward's terms, given every step
     hit_keys: tuple[str, ...] = ()
     landing_keys: tuple[str, ...] = ()
+    _info_keys: tuple[str, ...] = ("hit", "net_touch", "landed", goal_key)  # given every step
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        cls._info_keys = ("hit", "net_touch", "landed", cls.goal_key, *cls.reward_keys)
 
     def _init_task(self, task: Any, obs_size: int, action_size: int,
                    render_mode: str | None, view_kwargs: dict) -> None:
@@ -49,8 +54,6 @@ class TaskEnv(gym.Env):
         self.observation_space, self.action_space = box_spaces(obs_size, action_size)
         self.task = task
         self._done = True
-        # the info keys given every step
-        self._info_keys = ("hit", "net_touch", "landed", self.goal_key, *self.reward_keys)
 
     def _frame(self, view: EnvView, env: int) -> np.ndarray | None:
         raise NotImplementedError
@@ -104,4 +107,4 @@ def _put_firsts(info: dict, values: dict, keys: tuple[str, ...]) -> None:
     most of one game's values are already Python numbers)."""
     for k in keys:
         v = values[k]
-        info[k] = _first(v) if v.__class__ is np.ndarray else v
+        info[k] = _first(v) if isinstance(v, np.ndarray) else v
