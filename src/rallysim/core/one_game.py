@@ -327,9 +327,9 @@ class OneSimpleGame(OneGame):
 
     def __init__(self, game: Any, kernel: str | None = None) -> None:
         kernel = native.checked_kernel_name(kernel)
-        # the name asked for, resolved in each process at its first step (compiling takes
-        # seconds: not where a game is only made): a copy taken elsewhere (pickle) runs the
-        # compiled kernel where it can be had there
+        # the name asked for, resolved in each process at its first observation or step
+        # (compiling takes seconds: not where a game is only made): a copy taken elsewhere
+        # (pickle) runs the compiled kernel where it can be had there
         self.asked = kernel
         if kernel == "compiled":
             self._free_steps_function()  # refused here, not at the first step
