@@ -41,7 +41,7 @@ class TaskEnv(gym.Env):
     reward_keys: tuple[str, ...] = ()  # the reward's terms, given every step
     hit_keys: tuple[str, ...] = ()
     landing_keys: tuple[str, ...] = ()
-    _info_keys: tuple[str, ...] = ("hit", "net_touch", "landed", goal_key)  # given every step
+    _info_keys: tuple[str, ...]  # the info keys given every step, per subclass
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
@@ -103,8 +103,6 @@ class TaskEnv(gym.Env):
 
 
 def _put_firsts(info: dict, values: dict, keys: tuple[str, ...]) -> None:
-    """``info[k] = _first(values[k])`` for ``keys`` (written out: this runs every step, and
-    most of one game's values are already Python numbers)."""
+    """``info[k] = _first(values[k])`` for ``keys``."""
     for k in keys:
-        v = values[k]
-        info[k] = _first(v) if isinstance(v, np.ndarray) else v
+        info[k] = _first(values[k])
