@@ -317,6 +317,79 @@ def test_resume_falls_back_to_the_newest_intact_checkpoint(saved, tmp_path):
     assert ckpt.remove_checkpoints(run) == 3 and not folder.exists()
 
 
+def _forge_tensor(path: Path, name: str, value: np.ndarray) -> None:
+    """Replace tensor ``name`` of checkpoint ``path`` and recompute both digests: only a
+    forged or hand-edited file has valid checksums and tensors that do not fit."""
+    from safetensors.numpy import load, save
+
+    doc = json.loads(path.read_text())
+    weights = path.with_name(doc["weights"])
+    tensors = load(weights.read_bytes())
+    tensors[name] = value
+    data = save(tensors)
+    weights.write_bytes(data)
+    doc["weights_sha256"] = ckpt.sha256_bytes(data)
+    _rewrite(path, doc)
+
+
+def test_tensors_of_the_wrong_shape_are_refused_in_one_line_at_load(saved, tmp_path):
+    run = _copy_run(saved, tmp_path)
+    config = saved[1]
+    expect = {"stage": "low", "network": config.network()}
+    model = build_model(config, tmp_path)
+    sum(p.sum() for p in model.policy.parameters()).backward()
+    model.policy.optimizer.step()  # Adam's moments exist from the first update on
+    model.num_timesteps = 2048
+    newest = ckpt.save_checkpoint(run, model, {**expect, "curve": {"evals": [], "rollouts": []}})
+    doc, intact = ckpt.read_checkpoint(newest)
+    assert doc["optimizer"]["state"]["0"]["exp_avg"] == "tensor"
+    _forge_tensor(newest, "optimizer.0.exp_avg", np.zeros((3, 3), np.float32))
+    said: list[str] = []
+    fresh = build_model(config, tmp_path)
+    path, _ = ckpt.resume(fresh, run, expect, said.append)
+    assert said == [f"skipping checkpoint step_000000002048.json: checkpoint {newest}: tensor "
+                    "optimizer.0.exp_avg has shape (3, 3), this network's is (3,)",
+                    "resuming from the newest intact checkpoint, step_000000001536.json, "
+                    "instead"]
+    assert (path.name, fresh.num_timesteps) == ("step_000000001536.json", 1536)
+    # a step count holds one value; the policy's tensors are checked the same way
+    for change, line in [
+            ({"optimizer.0.step": np.zeros(2, np.float32)},
+             "tensor optimizer.0.step has shape (2,), this network's is ()"),
+            ({"policy.log_std": np.zeros((3, 3), np.float32)},
+             "tensor policy.log_std has shape (3, 3), this network's is (3,)"),
+            ({"policy.extra": np.zeros(3, np.float32)},
+             "tensor policy.extra is not in this network"),
+            ({"policy.value_net.bias": None},
+             "its tensor file lacks tensor policy.value_net.bias")]:
+        tensors = {k: v for k, v in {**intact, **change}.items() if v is not None}
+        with pytest.raises(ckpt.CheckpointError) as err:
+            ckpt.restore(build_model(config, tmp_path), doc, tensors, newest)
+        assert str(err.value) == f"checkpoint {newest}: {line}"
+    ckpt.restore(build_model(config, tmp_path), doc, intact, newest)  # the file as saved
+
+
+def test_a_directory_under_a_checkpoints_name_is_refused_before_training(saved, tmp_path,
+                                                                         capsys):
+    from rallysim.cli import main
+
+    run = _copy_run(saved, tmp_path)
+    folder = run / "checkpoints"
+    newest = folder / "step_000000001536.json"
+    newest.unlink()
+    newest.mkdir()  # resuming from 1024 would train to 1536, then fail to save there
+    before = sorted((p.relative_to(run), p.stat().st_mtime_ns) for p in run.rglob("*"))
+    assert main(_cli_args(run, {**TINY, "budget": 2048})) == 2
+    err = capsys.readouterr().err
+    assert err == (f"rallysim train: error: checkpoint {newest} is a directory, not a file: a "
+                   "save cannot replace it; remove it or train again with --restart\n")
+    assert sorted((p.relative_to(run), p.stat().st_mtime_ns) for p in run.rglob("*")) == before
+    # a save that fails all the same leaves no temporary file behind
+    with pytest.raises(IsADirectoryError):
+        ckpt.atomic_write(newest, b"{}")
+    assert sorted(p.name for p in folder.iterdir() if p.name.endswith(".tmp")) == []
+
+
 def test_saving_a_step_again_writes_new_names_and_removes_the_old(saved, tmp_path):
     run = _copy_run(saved, tmp_path)
     folder = run / "checkpoints"

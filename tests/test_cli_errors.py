@@ -406,6 +406,39 @@ def test_traceback_on_request(monkeypatch, no_long_work):
         main(["train", "low", "--set", "ppo.gamma=5"])
 
 
+@pytest.mark.skipif(not (hasattr(os, "mkfifo") and Path("/dev/zero").exists()),
+                    reason="needs FIFOs, symbolic links and /dev/zero")
+def test_policy_loader_says_what_a_path_that_is_not_a_file_is(tmp_path, no_long_work, capsys):
+    from rallysim.policies.mlp import load_policy
+    from rallysim.policies.registry import PRETRAINED
+
+    said = {"dir": "is a directory, not a file", "fifo": "is a FIFO (named pipe), not a file",
+            "loop": "is a loop of symbolic links",
+            "zero": "is a symbolic link to a character device (/dev/zero), not a file"}
+    for name in said:  # a good tensor file beside each: the JSON half is what is wrong
+        (tmp_path / f"{name}.safetensors").write_bytes(
+            (PRETRAINED / "simple_low.safetensors").read_bytes())
+    (tmp_path / "dir.json").mkdir()
+    os.mkfifo(tmp_path / "fifo.json")
+    (tmp_path / "loop.json").symlink_to("loop.json")
+    (tmp_path / "zero.json").symlink_to("/dev/zero")
+    for name, what in said.items():
+        line = f"policy file {tmp_path / name}.json {what}"
+        with pytest.raises(ValueError) as err:
+            load_policy(tmp_path / name)
+        assert str(err.value) == line
+        assert main(["demo", "--policy", str(tmp_path / name)]) == 2
+        assert capsys.readouterr().err == f"rallysim demo: error: {line}\n"
+    with pytest.raises(FileNotFoundError, match=r"none\.safetensors does not exist$"):
+        load_policy(tmp_path / "none")
+    # the command line's own check of an input file says the same (a stream stays readable)
+    for name in ("dir", "loop"):
+        path = str(tmp_path / f"{name}.json")
+        assert path_problem(path, "input") == f"{path!r} {said[name]}"
+    assert path_problem(str(tmp_path / "fifo.json"), "input") is None
+    assert no_long_work == []
+
+
 @pytest.mark.parametrize("text, want, problem", [
     ("", "dir", "empty"), ("a\0b", "file", "NUL"), ("x/", "file", "ends with '/'"),
     ("<file>", "dir", "not a directory"), ("<file>/a", "file", "not a directory"),

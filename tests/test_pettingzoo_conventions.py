@@ -225,6 +225,41 @@ def test_aec_env_copies_step_like_the_original(mod):
     assert digests == [play(env)] * 2
 
 
+# --- stepping outside an episode ---------------------------------------------------------------
+
+PARALLEL_VIEWS = {"parallel_env": lambda m, **kw: m.parallel_env(**kw),
+                  # PettingZoo's conversion of env() gives the parallel env back: the same rule
+                  "aec_to_parallel": lambda m, **kw: aec_to_parallel(m.env(**kw))}
+
+
+@modules
+@pytest.mark.parametrize("view", sorted(PARALLEL_VIEWS))
+def test_parallel_step_before_reset_and_after_the_end_follows_pettingzoo(mod, view):
+    env = PARALLEL_VIEWS[view](mod, max_cycles=3)
+    zero = np.zeros(env.action_space("player_0").shape)
+    for actions in ({}, {"player_0": zero, "player_1": zero}):
+        with pytest.raises(RuntimeError, match=r"before reset\(\): call reset\(\) first"):
+            env.step(actions)
+    env.reset(seed=0)
+    steps = 0
+    while env.agents:  # PettingZoo's usual loop, which builds {} once the episode is over
+        env.step({a: zero for a in env.agents})
+        steps += 1
+    assert steps == 3 and env.agents == []
+    before = pickle.dumps(env)
+    # as PettingZoo's aec_to_parallel: no agent acts, nothing happens, empty dicts come back
+    assert env.step({}) == ({}, {}, {}, {}, {})
+    assert env.step({}) == ({}, {}, {}, {}, {})
+    with pytest.raises(ValueError, match=r"agent 'player_0' is done; call reset\(\)"):
+        env.step({"player_0": zero})
+    assert pickle.dumps(env) == before and env.agents == []
+    obs, _ = env.reset(seed=0)
+    fresh, _ = PARALLEL_VIEWS[view](mod).reset(seed=0)
+    assert all(np.array_equal(obs[a], fresh[a]) for a in ("player_0", "player_1"))
+    with pytest.raises(ValueError, match=r"missing actions for \['player_1'\]"):
+        env.step({"player_0": zero})  # {} is no decision only once the episode is over
+
+
 # --- max_cycles ---------------------------------------------------------------------------------
 
 @modules

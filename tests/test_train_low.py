@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import warnings
 
 import numpy as np
 import pytest
@@ -82,6 +83,23 @@ def test_adapter_truncation_is_flagged():
     _, _, dones, infos = venv.step(zero)
     assert dones.all()
     assert all(i["TimeLimit.truncated"] and i["episode"]["l"] == 3 for i in infos)
+
+
+def test_quiet_training_on_the_paper_task_prints_nothing_on_stderr(tmp_path, capsys):
+    from rallysim.cli import main
+    from rallysim.sb3 import make_vec_env
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        assert main(["train", "low", "--quiet", "--out", str(tmp_path), "--budget", "1024",
+                     "--set", "ppo.n_envs=16", "ppo.n_steps=32", "ppo.batch_size=256",
+                     "eval.episodes=4", "warm_start.decisions=1024"]) == 0
+    assert [str(w.message) for w in caught if "out of date" in str(w.message)] == []
+    assert capsys.readouterr().err == ""
+    # the stage's config chose v0 (the paper's task); a user who makes it still hears
+    # Gymnasium's advice
+    with pytest.warns(DeprecationWarning, match="SimpleReturn-v0 is out of date"):
+        make_vec_env("RallySim/SimpleReturn-v0", n_envs=1).close()
 
 
 def test_smoke_training_improves_over_untrained_policy(tmp_path):

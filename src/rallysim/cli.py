@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import os
+import stat
 import sys
 import tempfile
 import time
@@ -20,6 +21,7 @@ from typing import TYPE_CHECKING, NoReturn
 import numpy as np
 
 from rallysim.core.shuttle import SHUTTLE_MODELS
+from rallysim.jsondoc import MISSING, not_a_file
 
 if TYPE_CHECKING:
     from rallysim.eval.agents import Agent
@@ -195,6 +197,14 @@ def _cannot_write_in(folder: Path) -> str | None:
     return None
 
 
+def _is_stream(path: Path) -> bool:
+    try:
+        mode = path.stat().st_mode
+    except OSError:  # a loop of links, a broken one: not_a_file has said what it is
+        return False
+    return stat.S_ISFIFO(mode) or stat.S_ISCHR(mode)
+
+
 def path_problem(text: str, want: str) -> str | None:
     """What stops ``text`` from serving as ``want``, or None: ``"dir"``, an output folder
     (created with its parents); ``"file"``, an output file (likewise); ``"input"``, a file to
@@ -208,13 +218,15 @@ def path_problem(text: str, want: str) -> str | None:
     path = Path(text)
     try:
         if want == "input":
-            if path.is_dir():
-                return f"{text!r} is a directory, not a file"
-            if not path.exists():
+            problem = not_a_file(path)
+            if problem == MISSING:
                 start = _nearest_existing(path.parent)
                 if not start.is_dir():
                     return f"{text!r} does not exist: {str(start)!r} is not a directory"
                 return f"{text!r} does not exist"
+            # a pipe or a terminal is read as a stream (--config <(...), /dev/stdin)
+            if problem is not None and not _is_stream(path):
+                return f"{text!r} {problem}"
             return None if os.access(path, os.R_OK) else f"cannot read {text!r}: permission denied"
         if os.path.islink(path) and not path.exists():
             return f"{text!r} is a broken symbolic link"

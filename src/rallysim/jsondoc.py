@@ -3,7 +3,10 @@ every failure is one ``ValueError`` (of the caller's subclass) naming the file a
 
 from __future__ import annotations
 
+import errno
 import json
+import os
+import stat
 from pathlib import Path
 from typing import Any
 
@@ -15,9 +18,45 @@ def type_name(value: Any) -> str:
     return TYPE_NAMES.get(type(value), type(value).__name__)
 
 
+MISSING = "does not exist"
+# what a non-regular file is, by its stat mode's test
+_KINDS = ((stat.S_ISDIR, "a directory"), (stat.S_ISFIFO, "a FIFO (named pipe)"),
+          (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
+          (stat.S_ISSOCK, "a socket"))
+
+
+def not_a_file(path: Path) -> str | None:
+    """None if ``path`` is a regular file (through any links), else what it is, to follow the
+    path in an error line: ``MISSING``, "is a directory, not a file", "is a loop of symbolic
+    links", "is a symbolic link to a character device (/dev/zero), not a file", ... Every
+    loader asks this first: reading a FIFO would wait for a writer, a device may never end,
+    and "does not exist" would misname them all."""
+    path = Path(path)
+    try:
+        mode = path.stat().st_mode
+    except (FileNotFoundError, NotADirectoryError):
+        if path.is_symlink():
+            return f"is a broken symbolic link (to {os.readlink(path)!r})"
+        return MISSING
+    except OSError as err:
+        if err.errno == errno.ELOOP:
+            return "is a loop of symbolic links"
+        return f"cannot be read: {err.strerror or err}"
+    if stat.S_ISREG(mode):
+        return None
+    kind = next((name for test, name in _KINDS if test(mode)), "not a regular file")
+    if path.is_symlink():
+        return f"is a symbolic link to {kind} ({os.path.realpath(path)}), not a file"
+    return f"is {kind}, not a file"
+
+
 def read_object(path: Path, what: str, error: type[ValueError] = ValueError) -> dict[str, Any]:
     """The JSON object in ``path`` (a ``what``: "policy", "checkpoint"), or ``error`` saying
-    why it cannot be one: unreadable, not UTF-8, not JSON, or not an object."""
+    why it cannot be one: not a regular file (``not_a_file``), unreadable, not UTF-8, not
+    JSON, or not an object."""
+    problem = not_a_file(path)
+    if problem is not None:
+        raise error(f"{what} {path} {problem}")
     try:
         raw = Path(path).read_bytes()
     except OSError as err:

@@ -101,7 +101,15 @@ def out_of_cycles(cycles: int, max_cycles: int | None) -> bool:
     return max_cycles is not None and cycles >= max_cycles
 
 
-def check_agent_actions(actions: Any, live: list[str]) -> None:
+def check_agent_actions(actions: Any, live: list[str], has_reset: bool) -> bool:
+    """PettingZoo's rule for a parallel step's ``actions`` (every parallel rally view): whether
+    there is a decision to run. Before the first ``reset()``: ``RuntimeError``. Once the episode
+    has ended (``live`` empty), ``{}`` is no decision: the step returns five empty dicts, as
+    PettingZoo's own parallel envs (``aec_to_parallel``) do for the usual loop's
+    ``{a: pi(o[a]) for a in env.agents}``. An action for an unknown or finished agent, a
+    missing one or a non-dict: ``ValueError``."""
+    if not has_reset:
+        raise RuntimeError("step() before reset(): call reset() first")
     if not isinstance(actions, dict):
         raise ValueError(f"actions must be a dict keyed by agent, got {type(actions).__name__}")
     for agent in actions:
@@ -112,3 +120,4 @@ def check_agent_actions(actions: Any, live: list[str]) -> None:
     missing = [a for a in live if a not in actions]
     if missing:
         raise ValueError(f"missing actions for {missing}")
+    return bool(live)

@@ -48,6 +48,9 @@ hitter if it lands out. Arguments: ``shuttle``, ``mode``, ``max_hits``, ``hit_re
   bases, the shuttle and player 0's arm (the opponent's arm is not in it).
 - ``metadata["is_parallelizable"]``: True for ``env()`` / ``raw_env`` (``aec_to_parallel``
   gives back the parallel env).
+- A step outside an episode (``rally_views.check_agent_actions``): once it has ended,
+  ``step({})`` returns five empty dicts, as PettingZoo's ``aec_to_parallel`` does, and an action
+  for a done agent raises ``ValueError``; before the first ``reset()``, ``RuntimeError``.
 - ``reset(options=...)``: the rallies have no reset options. Like PettingZoo's own envs they
   accept a dict and ignore it, silently (PettingZoo's ``api_test`` resets with a made-up key
   and requires that to work); anything but a dict or None raises ``ValueError``.
@@ -115,6 +118,7 @@ class SimpleRallyParallelEnv(ParallelEnv):
         self.action_spaces = {a: act_space(self.player_spec) for a in AGENTS}
         self.state_space = obs_space(self.player_spec)  # state() is player 0's observation
         self.cycles = 0  # steps since reset, for max_cycles
+        self._has_reset = False  # a step before the first reset is refused
 
     def observation_space(self, agent: str) -> spaces.Box:
         return self.observation_spaces[agent]
@@ -129,6 +133,7 @@ class SimpleRallyParallelEnv(ParallelEnv):
         self.task.reset(np.array([0]))
         self.agents = list(AGENTS)
         self.cycles = 0
+        self._has_reset = True
         self._view.new_episode()
         if self.render_mode == "human":
             self.render()
@@ -143,7 +148,8 @@ class SimpleRallyParallelEnv(ParallelEnv):
         self._view.close()
 
     def step(self, actions: dict[str, Any]):
-        check_agent_actions(actions, self.agents)
+        if not check_agent_actions(actions, self.agents, self._has_reset):
+            return {}, {}, {}, {}, {}  # the episode has ended: nothing to run
         size = self.player_spec.action.size
         a = np.stack([validate_actions(actions[agent], (size,)) for agent in AGENTS])
         rewards, term, trunc, info = self.task.step(a[None])

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from rallysim.jsondoc import read_object, require
+from rallysim.jsondoc import MISSING, not_a_file, read_object, require
 
 FORMAT = "rallysim-mlp-policy"
 FORMAT_VERSION = 1
@@ -64,16 +64,20 @@ def load_policy(prefix: str | Path, expect_obs_size: int | None = None) -> MLPPo
     """Load a policy written by ``rallysim.train.export.save_policy``.
 
     Raises ``FileNotFoundError`` for missing files and ``ValueError`` naming the file and the
-    field for anything else: a corrupted or foreign file, a weights/JSON mismatch, tensors of
-    the wrong shape (a bias that would broadcast), non-finite weights or action bounds, or an
-    unexpected observation size."""
+    field for anything else: a path that is not a regular file (saying what it is), a
+    corrupted or foreign file, a weights/JSON mismatch, tensors of the wrong shape (a bias that
+    would broadcast), non-finite weights or action bounds, or an unexpected observation
+    size."""
     from safetensors import SafetensorError
     from safetensors.numpy import load_file
 
     weights_path, json_path = policy_paths(prefix)
     for path in (weights_path, json_path):
-        if not path.is_file():
-            raise FileNotFoundError(f"policy file {path} does not exist")
+        problem = not_a_file(path)
+        if problem == MISSING:
+            raise FileNotFoundError(f"policy file {path} {problem}")
+        if problem is not None:
+            raise ValueError(f"policy file {path} {problem}")
     spec = read_object(json_path, "policy")
 
     def field(doc: Any, name: str, kind: type | tuple[type, ...], where: str = "") -> Any:

@@ -93,13 +93,17 @@ def atomic_write(path: Path, data: bytes, label: str | None = None) -> None:
     old file or the new one, never a part. ``label``: the write point's name (``crash_point``)."""
     path = Path(path)
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    with open(tmp, "wb") as f:
-        f.write(data)
-        f.flush()
-        os.fsync(f.fileno())
-    if label:
-        crash_point(f"{label}.tmp")
-    os.replace(tmp, path)
+    try:
+        with open(tmp, "wb") as f:
+            f.write(data)
+            f.flush()
+            os.fsync(f.fileno())
+        if label:
+            crash_point(f"{label}.tmp")
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)  # a write that failed (a full disk, a folder in the way)
+        raise
     _fsync_dir(path.parent)
     if label:
         crash_point(label)
@@ -173,6 +177,26 @@ def unflatten_optimizer(tensors: dict[str, np.ndarray], doc: dict[str, Any], sou
     return {"state": state, "param_groups": doc["param_groups"]}
 
 
+# Adam's per-parameter step count holds one value; every other slot of the optimisers RallySim
+# trains with (Adam's moments) has its parameter's shape
+_SCALAR_SLOTS = frozenset({"step"})
+
+
+def check_shapes(tensors: dict[str, np.ndarray], expected: dict[str, tuple[int, ...]],
+                 source: Path) -> None:
+    """Refuse, in one line naming the tensor, a tensor of ``expected`` (name -> shape) that
+    ``tensors`` lacks or holds in another shape: checksums only prove a file unchanged since it
+    was sealed, so a forged or hand-edited file gets this far. Shape ``()`` is one value,
+    which a tensor file holds as shape (1,) (``write_pair`` stores arrays of at least 1-D)."""
+    for name, shape in expected.items():
+        if name not in tensors:
+            raise CheckpointError(f"checkpoint {source}: its tensor file lacks tensor {name}")
+        found = tuple(np.shape(tensors[name]))
+        if found != shape and not (shape == () and found == (1,)):
+            raise CheckpointError(f"checkpoint {source}: tensor {name} has shape {found}, "
+                                  f"this network's is {shape}")
+
+
 def load_optimizer(optimizer: Any, tensors: dict[str, np.ndarray], doc: dict[str, Any],
                    source: Path, prefix: str = "optimizer") -> None:
     """Put a saved optimiser state into ``optimizer`` or raise ``CheckpointError``."""
@@ -182,6 +206,38 @@ def load_optimizer(optimizer: Any, tensors: dict[str, np.ndarray], doc: dict[str
     except (ValueError, KeyError, TypeError, RuntimeError) as err:
         raise CheckpointError(f"checkpoint {source}: field optimizer does not fit this "
                               f"network's optimiser: {err}") from None
+    # torch loads moments of any shape and fails only at the first update, after a rollout;
+    # checked once torch has matched the groups, so a refused file leaves only this fresh
+    # optimiser loaded, which the next checkpoint tried replaces or the refused run drops
+    saved = (pid for group in doc["param_groups"] for pid in group["params"])
+    params = (p for group in optimizer.param_groups for p in group["params"])
+    expected = {}
+    for pid, param in zip(saved, params, strict=True):
+        for key, value in doc["state"].get(str(pid), {}).items():
+            if value == "tensor":
+                shape = () if key in _SCALAR_SLOTS else tuple(param.shape)
+                expected[f"{prefix}.{pid}.{key}"] = shape
+    check_shapes(tensors, expected, source)
+
+
+def load_module(module: Any, tensors: dict[str, np.ndarray], source: Path,
+                prefix: str = "policy.") -> None:
+    """Put the tensors named ``prefix`` + a ``module.state_dict()`` key into ``module``, or
+    raise a one-line ``CheckpointError`` naming the first missing, extra or misshapen one."""
+    import torch
+
+    own = module.state_dict()
+    check_shapes(tensors, {prefix + key: tuple(value.shape) for key, value in own.items()},
+                 source)
+    extra = sorted(k for k in tensors if k.startswith(prefix) and k[len(prefix):] not in own)
+    if extra:
+        raise CheckpointError(f"checkpoint {source}: tensor {extra[0]} is not in this network")
+    try:
+        module.load_state_dict({key: torch.from_numpy(np.array(tensors[prefix + key]))
+                                for key in own})
+    except (RuntimeError, TypeError) as err:  # names and shapes fit: a dtype torch cannot copy
+        raise CheckpointError(f"checkpoint {source} does not fit this network: "
+                              f"{' '.join(str(err).split())}") from None
 
 
 # --- writing -------------------------------------------------------------------------------
@@ -295,6 +351,21 @@ def read_json(path: Path) -> dict[str, Any]:
     return jsondoc.read_object(path, "checkpoint", CheckpointError)
 
 
+def read_named(path: Path, file: Path, field: str, what: str) -> bytes:
+    """The bytes of ``file`` (a ``what``: "tensor file", "dataset"), which field ``field`` of
+    checkpoint ``path`` names, or a ``CheckpointError`` saying why not."""
+    problem = jsondoc.not_a_file(file)
+    if problem is None:
+        try:
+            return file.read_bytes()
+        except OSError as err:
+            problem = f"cannot be read: {err.strerror or err}"
+    if problem == jsondoc.MISSING:
+        raise CheckpointError(f"checkpoint {path} lacks its {what} {file.name} (field {field})")
+    raise CheckpointError(f"checkpoint {path}: its {what} {file.name} (field {field}) "
+                          f"{problem}")
+
+
 def read_pair(path: Path, form: str, versions: tuple[int, ...],
               check: Callable[[dict[str, Any], Path], None] | None = None,
               expect: dict[str, Any] | None = None,
@@ -335,11 +406,7 @@ def read_pair(path: Path, form: str, versions: tuple[int, ...],
                                      f"this run has {key}={value!r}: use another --out folder, "
                                      "the same settings or --restart")
     weights = path.with_name(name)
-    try:
-        data = weights.read_bytes()
-    except OSError:
-        raise CheckpointError(f"checkpoint {path} lacks its tensor file {name} (field "
-                              "weights)") from None
+    data = read_named(path, weights, "weights", "tensor file")
     if sha256_bytes(data) != digest:
         raise CheckpointError(f"checkpoint tensors {weights} are corrupted (SHA-256 differs "
                               f"from field weights_sha256 of {path.name})")
@@ -424,7 +491,13 @@ def newest_intact(paths: list[Path], load: Callable[[Path], Any], say: Say) -> A
     """``load`` each of ``paths`` (newest first) until one succeeds and return its result
     (None when there are no paths); ``say`` a line for each one skipped and why.
     ``CheckpointMismatch`` is not skipped: the folder belongs to another run. When every one
-    fails: a ``CheckpointError`` listing them."""
+    fails: a ``CheckpointError`` listing them. A directory under a checkpoint's name is
+    refused before any of them is tried: the run's saves and pruning could not replace it, so
+    it would fail after training an interval."""
+    for path in paths:
+        if path.is_dir() and not path.is_symlink():
+            raise CheckpointError(f"checkpoint {path} {jsondoc.not_a_file(path)}: a save "
+                                  "cannot replace it; remove it or train again with --restart")
     skipped: list[str] = []
     for path in paths:
         try:
@@ -461,14 +534,7 @@ def resume(model: Any, run_dir: Path, expect: dict[str, Any], say: Say,
 def restore(model: Any, doc: dict[str, Any], tensors: dict[str, np.ndarray],
             source: Path | None = None) -> None:
     """Put a checkpoint's policy and optimiser state into a freshly built PPO ``model``."""
-    import torch
-
     where = Path(source or "(unnamed)")
-    policy_state = {k[len("policy."):]: torch.from_numpy(np.array(v))
-                    for k, v in tensors.items() if k.startswith("policy.")}
-    try:
-        model.policy.load_state_dict(policy_state)
-    except RuntimeError as err:
-        raise CheckpointError(f"checkpoint {where} does not fit this network: {err}") from None
+    load_module(model.policy, tensors, where)
     load_optimizer(model.policy.optimizer, tensors, doc["optimizer"], where)
     model.num_timesteps = int(doc["decisions"])

@@ -192,10 +192,8 @@ class _Store:
         doc, tensors = ckpt.read_pair(path, FORMAT, (FORMAT_VERSION,), _check_state,
                                       expect={"settings": self.settings})
         data = [self._read_data(path, entry) for entry in doc["data"]]
-        policy_state = {k[len("policy."):]: torch.from_numpy(np.array(v))
-                        for k, v in tensors.items() if k.startswith("policy.")}
+        ckpt.load_module(self.policy, tensors, path)
         try:
-            self.policy.load_state_dict(policy_state)
             self.gen.set_state(torch.from_numpy(np.array(tensors["rng.generator"])))
             torch.set_rng_state(torch.from_numpy(np.array(tensors["rng.torch"])))
             name, pos, has_gauss, cached = doc["rng"]["numpy"]
@@ -218,11 +216,7 @@ class _Store:
         from safetensors.numpy import load
 
         file = path.with_name(entry["file"])
-        try:
-            raw = file.read_bytes()
-        except OSError:
-            raise ckpt.CheckpointError(f"checkpoint {path} lacks its dataset {file.name} "
-                                       "(field data)") from None
+        raw = ckpt.read_named(path, file, "data", "dataset")
         if ckpt.sha256_bytes(raw) != entry["sha256"]:
             raise ckpt.CheckpointError(f"warm-start dataset {file} is corrupted (SHA-256 "
                                        f"differs from field data of {path.name})")

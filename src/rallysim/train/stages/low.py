@@ -10,6 +10,8 @@ the velocity's angle and speed errors; teacher ``AimedSwing``.
 
 from __future__ import annotations
 
+import re
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, ClassVar
@@ -125,8 +127,15 @@ class LowStage(Stage):
         # (rallysim.sb3.make_vec_env): what users get is what training uses
         from rallysim.sb3 import make_vec_env
 
-        return make_vec_env(self.export_env(config), config.ppo.n_envs, seed=config.seed,
-                            env_kwargs=PLAYERS[config.player].env_kwargs(config))
+        env_id = self.export_env(config)
+        with warnings.catch_warnings():
+            # Gymnasium warns that SimpleReturn-v0 is out of date (v1 exists), but the config
+            # chose it: v0 is the paper's task and goals="uniform", the default; v1 is
+            # goals="reachable". Only that warning: any other still shows
+            warnings.filterwarnings("ignore", f".*The environment {re.escape(env_id)} is out "
+                                    "of date", DeprecationWarning)
+            return make_vec_env(env_id, config.ppo.n_envs, seed=config.seed,
+                                env_kwargs=PLAYERS[config.player].env_kwargs(config))
 
     def env_options(self, config: TrainConfig) -> dict[str, Any]:
         # "env" names the player: the key rallysim.rllib.envs.make_return_env reads
