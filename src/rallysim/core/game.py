@@ -53,7 +53,9 @@ class Game:
     starts each rally (default: the machine serve of docs/reference.md §4.3). The rule set ``rules``
     (``rallysim.core.rules.Rules``) is derived once from the shuttle model and the player
     count. ``shaping`` counts the low-level task's approach steps before each player's first
-    hit (``Events.approach_good`` and ``approach_bad``).
+    hit (``Events.approach_good`` and ``approach_bad``). ``max_hits`` is a rally's hit cap:
+    the hit that reaches it ends the judging of that rally until its next serve (no later hit,
+    net touch or landing counts, even within the same decision); None: no cap.
 
     The physics steps run on lanes (``rallysim.core.lanes``): NumPy arrays over a batch, Python
     numbers for one game of one player (``ops``), with the same rule code for both.
@@ -61,8 +63,10 @@ class Game:
 
     def __init__(self, n_envs: int, n_players: int = 1, shuttle: str = "paper",
                  seed: int | None = None, shaping: bool = False,
-                 bodies: PlayerBodies | None = None, serve: Serve | None = None) -> None:
+                 bodies: PlayerBodies | None = None, serve: Serve | None = None,
+                 max_hits: int | None = None) -> None:
         self.n_envs, self.n_players = n_envs, n_players
+        self.max_hits = max_hits
         self.court = Court.from_mjcf()
         self.flight = make_shuttle_model(shuttle, PHYSICS_DT)
         self.rules = rules.Rules.derive(self.flight, n_players)
@@ -357,6 +361,7 @@ class Game:
         met, t = tested
         start = self._start_positions(q0)
         read = ops.read
+        live = self._below_cap(live, ops)
         hit = read(met[:, :P]) & g.armed & live
         if ops.any(hit):
             self._store(g)
@@ -364,6 +369,8 @@ class Game:
             self._reload(g)
             self._observe(g, ops)
             met[:, P:], t[:, P:] = self._swept(q0, self._points(g, ops), ops, first=P)
+            # the hit that reached the cap ended the rally: its shuttle meets nothing more
+            live = self._below_cap(live, ops)
 
         touched = read(met[:, P:P + 1]) & live
         landed = read(met[:, P + 1:]) & live
@@ -377,6 +384,14 @@ class Game:
             self._store(g)
             self._land(_cells(landed), t[:, P + 1], start)
             self._reload(g)
+
+    def _below_cap(self, live: Any, ops: Ops) -> Any:
+        """``live`` left only where the rally has fewer hits than ``max_hits``: several hits
+        can fall within one decision, and none may count past the cap."""
+        if self.max_hits is None:
+            return live
+        below = self.state.hits < self.max_hits
+        return live & (below.item() if ops.scalar else below[:, None])
 
     def _points(self, g: Any, ops: Ops, keep: bool = False) -> Any:
         """The points the swept test takes, now: over a batch (N, P + 2, 3) (the shuttle in

@@ -90,7 +90,8 @@ class RallyTask:
         # The net rule (re-arm both players, or block for the aero shuttle) is the game's
         # rules.Rules, derived from the shuttle model.
         self.game = Game(num_rallies, 2, shuttle=config.shuttle, seed=seed,
-                         bodies=spec.make_bodies(num_rallies, 2), serve=spec.serve)
+                         bodies=spec.make_bodies(num_rallies, 2), serve=spec.serve,
+                         max_hits=config.max_hits)
         self.competitive = config.mode == "competitive"
         n = num_rallies
         self.elapsed = np.zeros(n, np.int64)  # decisions in the current rally
