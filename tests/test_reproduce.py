@@ -41,6 +41,41 @@ def test_reproduce_writes_the_report_json_and_plots(smoke_run):
     assert again["wall_s"]["training"] < 5
 
 
+def test_each_seeds_evaluation_is_kept_and_taken_again(smoke_run, tmp_path, monkeypatch):
+    """Every seed's evaluation is on disk as soon as it is played; a rerun reads it back
+    rather than playing it, and a bad value in it is refused naming the seed and the method,
+    leaving the evaluations where they were."""
+    import shutil
+
+    from rallysim.train import reproduce
+
+    out, results = smoke_run
+    for seed in (0, 1):
+        doc = json.loads(reproduce.evaluation_path(out, seed, 50).read_text())
+        assert doc["settings"] == {"cap": 50, "rallies": 8, "low_eval_episodes": 64}
+        assert doc["result"] == results["per_seed"][str(seed)]
+    work = tmp_path / "copy"
+    shutil.copytree(out, work)
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("an evaluation on disk was played again")
+
+    monkeypatch.setattr(reproduce, "evaluate_seed", refuse)
+    again = run_reproduce(BUDGETS["smoke"], work, workers=1)
+    assert again["per_seed"] == results["per_seed"]
+    path = reproduce.evaluation_path(work, 1, 50)
+    doc = json.loads(path.read_text())
+    doc["result"]["lengths"]["Random High-level"][3] = 54
+    path.write_text(json.dumps(doc))
+    with pytest.raises(ValueError, match=r"seed 1, Random High-level: .*\[0, 50\], got \d+ to 54"):
+        run_reproduce(BUDGETS["smoke"], work, workers=1)
+    assert reproduce.evaluation_path(work, 0, 50).is_file() and path.is_file()
+    # other settings (more rallies) play the evaluation again
+    assert reproduce.stored_evaluation(work, 0, BUDGETS["smoke"], 50) is not None
+    from dataclasses import replace
+    assert reproduce.stored_evaluation(work, 0, replace(BUDGETS["smoke"], rallies=9), 50) is None
+
+
 def _weight_hashes(out) -> dict[str, str]:
     from rallysim.policies.mlp import sha256_file
 

@@ -224,14 +224,69 @@ def default_workers() -> int:
 SEED_STEPS = (*METHOD_STAGES, "evaluate")
 
 
+def evaluation_path(out: Path, seed: int, cap: int) -> Path:
+    """Where one seed's evaluation at ``cap`` hits is kept, as soon as it is played."""
+    return out / "evaluations" / f"seed{seed}_cap{cap}.json"
+
+
+def _evaluation_settings(budget: Budget, cap: int) -> dict[str, int]:
+    """What an evaluation on disk must have been played with to be taken again."""
+    return {"cap": cap, "rallies": budget.rallies, "low_eval_episodes": budget.low_eval_episodes}
+
+
+def stored_evaluation(out: Path, seed: int, budget: Budget, cap: int) -> dict[str, Any] | None:
+    """The seed's evaluation from an earlier run, if one was played with the same settings
+    (and its policies are not newer than it); None otherwise."""
+    from rallysim.jsondoc import read_object
+
+    path = evaluation_path(out, seed, cap)
+    if not path.is_file():
+        return None
+    policies = [out / "runs" / f"{stage}_seed{seed}" / "policy.safetensors"
+                for stage in METHOD_STAGES]
+    if any(p.is_file() and p.stat().st_mtime > path.stat().st_mtime for p in policies):
+        return None  # a stage was trained again since
+    try:
+        doc = read_object(path, "evaluation")
+    except ValueError:
+        return None  # damaged (a crash mid-write cannot do it): played again
+    if doc.get("settings") != _evaluation_settings(budget, cap):
+        return None
+    return doc["result"]
+
+
+def check_lengths(result: dict[str, Any], seed: int, cap: int) -> None:
+    """Every method's rally lengths lie in [0, ``cap``]; ``ValueError`` names the seed and the
+    method otherwise."""
+    for method, lengths in result["lengths"].items():
+        x = np.asarray(lengths)
+        if x.size and (x.min() < 0 or x.max() > cap):
+            raise ValueError(f"seed {seed}, {method}: rally lengths must lie in [0, {cap}], "
+                             f"got {int(x.min())} to {int(x.max())}")
+
+
 def run_seed_step(seed: int, step: str, budget: Budget, out: Path, curves: dict[str, Any],
                   cap: int, queue: Any = None) -> dict[str, Any]:
-    """One step of one seed (``SEED_STEPS``): a stage's curve, or the seed's evaluation."""
+    """One step of one seed (``SEED_STEPS``): a stage's curve, or the seed's evaluation. An
+    evaluation is written to ``evaluation_path`` as soon as it is played, before it is
+    checked, and one already there with the same settings is taken instead of played."""
+    from rallysim.train.checkpoint import atomic_write
+
     if step != "evaluate":
         return train_seed_stage(seed, step, budget, out, curves, queue)
-    with Heartbeat(f"[evaluate seed {seed}]", len(METHODS), lambda t: _say(queue, t),
-                   unit="rally sets") as beat:
-        result = evaluate_seed(seed, out, budget.rallies, budget.low_eval_episodes, cap, beat)
+    result = stored_evaluation(out, seed, budget, cap)
+    if result is not None:
+        _say(queue, f"[seed {seed}] evaluation at cap {cap}: already played, read back")
+    else:
+        with Heartbeat(f"[evaluate seed {seed}]", len(METHODS), lambda t: _say(queue, t),
+                       unit="rally sets") as beat:
+            result = evaluate_seed(seed, out, budget.rallies, budget.low_eval_episodes, cap,
+                                   beat)
+        path = evaluation_path(out, seed, cap)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        doc = {"seed": seed, "settings": _evaluation_settings(budget, cap), "result": result}
+        atomic_write(path, json.dumps(doc).encode())
+    check_lengths(result, seed, cap)
     hrl = np.mean(result["lengths"]["HRL"])
     _say(queue, f"[seed {seed}] evaluated: HRL mean rally {hrl:.2f} (cap {cap})")
     return result
@@ -312,6 +367,8 @@ def summarise(budget: Budget, curves: dict[int, dict[str, Any]], per_seed: dict[
     from rallysim.eval.stats import summarise_rallies
 
     seeds = sorted(per_seed)
+    for s in seeds:  # a bad value names its seed and method, not only the pooled table
+        check_lengths(per_seed[s], s, cap)
     methods, by_seed = {}, {}
     for m in METHODS:
         groups = [np.asarray(per_seed[s]["lengths"][m]) for s in seeds]
