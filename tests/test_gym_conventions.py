@@ -354,3 +354,17 @@ def test_a_refused_vector_env_is_collected_quietly():
         sys.unraisablehook = previous
     assert all(r.startswith("unknown autoreset_mode 'sometimes'") for r in refusals)
     assert [str(s.exc_value) for s in seen] == []
+
+
+@pytest.mark.parametrize("env_id", sorted(k for k in gym.registry if k.startswith("RallySim/")))
+@pytest.mark.parametrize("vector", [False, True])
+def test_a_misspelt_keyword_lists_the_valid_ones(env_id, vector):
+    """``gym.make(id, shuttel="aero")`` names the misspelt keyword and every valid one, in
+    Python's own wording (what TorchRL's retry looks for), for every registered id and view."""
+    make = (lambda **kw: gym.make_vec(env_id, num_envs=2, **kw)) if vector else (
+        lambda **kw: gym.make(env_id, **kw))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)  # (v0 ids: "out of date")
+        with pytest.raises(TypeError, match=r"unexpected keyword argument 'shuttel'; "
+                                            r"valid arguments: .*\bshuttle\b.*\bmax_decisions\b"):
+            make(shuttel="aero")

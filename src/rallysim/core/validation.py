@@ -12,8 +12,32 @@ import numpy as np
 
 from rallysim.core.game import validate_seed
 
-__all__ = ["check_options", "option_values", "positive_int", "read_options", "real_array",
-           "validate_action_row", "validate_actions", "validate_goals", "validate_seed"]
+__all__ = ["check_keywords", "check_options", "keyword_names", "option_values", "positive_int",
+           "read_options", "real_array", "validate_action_row", "validate_actions",
+           "validate_goals", "validate_seed"]
+
+
+def check_keywords(given: Iterable[str], valid: Iterable[str],
+                   listed: Iterable[str] | None = None) -> None:
+    """Refuse keyword arguments not among ``valid`` with ``TypeError`` in Python's own wording
+    (clients such as TorchRL's ``GymEnv`` retry without an optional argument on exactly that
+    error), listing every valid name (``listed``, default ``valid``), so that a misspelt one
+    says what was meant."""
+    valid = list(valid)
+    unknown = sorted(set(given) - set(valid))
+    if unknown:
+        names = valid if listed is None else list(listed)
+        raise TypeError(f"got an unexpected keyword argument {unknown[0]!r}; valid arguments: "
+                        + ", ".join(names))
+
+
+def keyword_names(function: Any) -> list[str]:
+    """The names ``function`` takes as keyword arguments (not ``self``, not ``**kwargs``)."""
+    import inspect
+
+    kinds = (inspect.Parameter.POSITIONAL_OR_KEYWORD, inspect.Parameter.KEYWORD_ONLY)
+    return [p.name for p in inspect.signature(function).parameters.values()
+            if p.kind in kinds and p.name != "self"]
 
 
 def real_array(value: Any, what: str, shape: tuple[int, ...]) -> np.ndarray:

@@ -74,6 +74,8 @@ apply and Gymnasium's ``_key`` masks marking where it does.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from gymnasium import spaces
 
@@ -84,7 +86,7 @@ from rallysim.core.tasks.humanlike_return import (
     OBS_SIZE,
     HumanLikeReturnTask,
 )
-from rallysim.core.validation import positive_int
+from rallysim.core.validation import check_keywords, keyword_names, positive_int
 from rallysim.envs.rendering import RENDER_MODES, EnvView
 from rallysim.envs.task_env import TaskEnv, box_spaces
 from rallysim.envs.vector_base import NEXT_STEP, TaskVectorEnv
@@ -104,7 +106,8 @@ class HumanLikeReturnEnv(TaskEnv):
     landing_keys = ("landing_point",)
 
     def __init__(self, shuttle: str = "paper", max_decisions: int = MAX_DECISIONS,
-                 render_mode: str | None = None) -> None:
+                 render_mode: str | None = None, **unknown: Any) -> None:
+        check_keywords(unknown, keyword_names(HumanLikeReturnEnv.__init__))
         task = HumanLikeReturnTask(1, shuttle, None, max_decisions)
         self._init_task(task, OBS_SIZE, ACTION_SIZE, render_mode, {"player": "humanlike"})
 
@@ -137,7 +140,8 @@ class HumanLikeReturnVectorEnv(TaskVectorEnv):
     def __init__(self, num_envs: int = 1, shuttle: str = "paper",
                  max_decisions: int = MAX_DECISIONS, autoreset_mode: str = "next_step",
                  render_mode: str | None = None, seed: int | None = None,
-                 render_envs: int = 1) -> None:
+                 render_envs: int = 1, **unknown: Any) -> None:
+        check_keywords(unknown, keyword_names(HumanLikeReturnVectorEnv.__init__))
         num_envs = positive_int(num_envs, "num_envs")
         task = HumanLikeReturnTask(num_envs, shuttle, seed, max_decisions)
         self._init_task(num_envs, autoreset_mode, task, _spaces(), render_mode, render_envs,

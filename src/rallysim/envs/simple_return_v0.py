@@ -68,6 +68,8 @@ marking where it does.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from gymnasium import spaces
 
@@ -79,7 +81,7 @@ from rallysim.core.tasks.simple_return import (
     TARGET_DEPTH_RANGE,
     ReturnTask,
 )
-from rallysim.core.validation import positive_int
+from rallysim.core.validation import check_keywords, keyword_names, positive_int
 from rallysim.envs.rendering import RENDER_MODES, EnvView
 from rallysim.envs.task_env import TaskEnv, box_spaces
 from rallysim.envs.vector_base import NEXT_STEP, TaskVectorEnv
@@ -102,7 +104,8 @@ class SimpleReturnEnv(TaskEnv):
                  target_depth_range: tuple[float, float] = TARGET_DEPTH_RANGE,
                  max_decisions: int = MAX_DECISIONS, render_mode: str | None = None,
                  incoming: str = "serve", keep_bodies: bool = False,
-                 goals: str = "uniform") -> None:
+                 goals: str = "uniform", **unknown: Any) -> None:
+        check_keywords(unknown, keyword_names(SimpleReturnEnv.__init__))
         task = ReturnTask(1, shuttle, None, target_depth_range, max_decisions, incoming,
                           keep_bodies, goals)
         self._init_task(task, OBS_SIZE, ACTION_SIZE, render_mode, {})
@@ -135,7 +138,8 @@ class SimpleReturnVectorEnv(TaskVectorEnv):
                  max_decisions: int = MAX_DECISIONS, autoreset_mode: str = "next_step",
                  render_mode: str | None = None, seed: int | None = None,
                  render_envs: int = 1, incoming: str = "serve",
-                 keep_bodies: bool = False, goals: str = "uniform") -> None:
+                 keep_bodies: bool = False, goals: str = "uniform", **unknown: Any) -> None:
+        check_keywords(unknown, keyword_names(SimpleReturnVectorEnv.__init__))
         num_envs = positive_int(num_envs, "num_envs")
         task = ReturnTask(num_envs, shuttle, seed, target_depth_range, max_decisions,
                           incoming, keep_bodies, goals)

@@ -65,12 +65,10 @@ class RallyConfig:
         Python's own wording (clients such as TorchRL's ``GymEnv`` retry without an optional
         argument on exactly that error) and lists every valid name: the view's own
         ``view_args`` and the rules' fields."""
+        from rallysim.core.validation import check_keywords
+
         valid = [f.name for f in fields(cls)]
-        unknown = sorted(set(kwargs) - set(valid))
-        if unknown:
-            names = ", ".join([*view_args, *valid])
-            raise TypeError(f"got an unexpected keyword argument {unknown[0]!r}; valid "
-                            f"arguments: {names}")
+        check_keywords(kwargs, valid, [*view_args, *valid])
         return cls(**kwargs)
 
 
