@@ -1,7 +1,54 @@
-import numpy as np
-import pytest
+"""Shared fixtures. First of all, the numerics are pinned (``rallysim.numerics.PINNED``) before
+NumPy or torch load, so that the tests' exact hashes and values hold on any x86-64 CPU with AVX2
+(docs/numerics.md). ``RALLYSIM_TEST_NUMERICS=native`` runs the suite on the machine's own
+numerics instead, where the tests marked ``numerics`` (exact bits) skip."""
 
-from rallysim.core.game import Game
+import importlib.util
+import os
+import sys
+from pathlib import Path
+
+
+def _load_numerics():
+    """``rallysim.numerics`` without importing the package (which loads NumPy)."""
+    if "rallysim.numerics" in sys.modules:  # (this file imported again as tests.conftest)
+        return sys.modules["rallysim.numerics"]
+    spec = importlib.util.find_spec("rallysim")
+    assert spec is not None and spec.submodule_search_locations, "rallysim is not installed"
+    path = Path(next(iter(spec.submodule_search_locations))) / "numerics.py"
+    module_spec = importlib.util.spec_from_file_location("rallysim.numerics", path)
+    module = importlib.util.module_from_spec(module_spec)
+    module_spec.loader.exec_module(module)
+    sys.modules["rallysim.numerics"] = module
+    return module
+
+
+numerics = _load_numerics()
+NATIVE = os.environ.get("RALLYSIM_TEST_NUMERICS", "pinned") == "native"
+WHY_UNPINNED = "RALLYSIM_TEST_NUMERICS=native" if NATIVE else numerics.can_pin()
+if WHY_UNPINNED is None:
+    numerics.pin_numerics()  # (raises if NumPy was loaded first: a plugin, say)
+
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+
+from rallysim.core.game import Game  # noqa: E402
+
+
+def pytest_collection_modifyitems(config, items):
+    """Tests of exact bits (marked ``numerics``) run only under the pinned numerics."""
+    if WHY_UNPINNED is None:
+        assert numerics.pinned_here(), "the numerics were pinned but NumPy runs AVX-512 code"
+        return
+    skip = pytest.mark.skip(reason=f"exact bits need the pinned numerics: {WHY_UNPINNED}")
+    for item in items:
+        if "numerics" in item.keywords:
+            item.add_marker(skip)
+
+
+def pytest_report_header(config):
+    state = "pinned" if WHY_UNPINNED is None else f"native ({WHY_UNPINNED})"
+    return f"rallysim numerics: {state}; CPU {numerics.cpu_model()}"
 
 
 @pytest.fixture

@@ -129,6 +129,7 @@ def test_a_resumed_opponent_stream_survives_the_trainers_seeded_reset():
     assert (restarted.opponent_of != expected).any()  # the stream from its start differs
 
 
+@pytest.mark.numerics
 def test_golden_turns_against_a_mixed_pool():
     """80 seeded turns of 8 games against two opponents, hashed (observations, rewards, ends,
     points, decisions, scores, opponents): recorded before the turn env and the flat env came

@@ -360,7 +360,11 @@ def test_cli_competitive_errors_are_one_line_before_any_game(argv, word, monkeyp
 def test_the_shipped_champion_beats_the_scripted_and_hrl_players(tmp_path):
     """``simple_compete`` (docs/competitive.md: the study's best seed) wins most points against
     the scripted controller and the cooperative HRL agent; measured on these 8 games of at
-    most 5,000 decisions each (seed 0) in CHAMPION_RATES."""
+    most 5,000 decisions each (seed 0) in CHAMPION_RATES, exactly under the pinned numerics
+    (other CPUs' numerics play other games: 0.670 against scripted on an AVX-512 Intel)."""
+    from rallysim.numerics import pinned_here
+
+    exact = pinned_here()
     out = tmp_path / "champion.json"
     assert main(["evaluate", "--mode", "competitive", "--players", "simple_compete",
                  "scripted", "--json", str(out), "--games", "8", "--max-decisions", "5000",
@@ -368,9 +372,9 @@ def test_the_shipped_champion_beats_the_scripted_and_hrl_players(tmp_path):
     doc = json.loads(out.read_text())["competitive"]
     p = doc["point_win_rate"]
     assert p["low"] <= p["value"] <= p["high"]
-    assert p["value"] == pytest.approx(CHAMPION_RATES["scripted"], abs=1e-9)
+    assert not exact or p["value"] == pytest.approx(CHAMPION_RATES["scripted"], abs=1e-9)
     assert p["value"] > 0.6
     vs_hrl = summarise(play_games(agent("simple_compete"), agent("hrl"), 8, seed=0,
                                   max_decisions=5000))["point_win_rate"]["value"]
-    assert vs_hrl == pytest.approx(CHAMPION_RATES["hrl"], abs=1e-9)
+    assert not exact or vs_hrl == pytest.approx(CHAMPION_RATES["hrl"], abs=1e-9)
     assert vs_hrl > 0.7

@@ -11,16 +11,16 @@ What is checked, for each script:
   <= hit, and for the two PPO scripts, which learn within their smoke runs, a hit rate and a
   mean reward well above any untrained policy's (random actions and untrained networks hit
   5-17 % of these 64 evaluation serves, mean reward -0.4 to 0.1);
-- the numbers of its seeded smoke run, each held to its pinned value (the ``check_pinned``
-  calls) within one unit of the printed precision (for rates over 64 episodes: the same number
-  of episodes). The scripts are seeded and deterministic on one machine, so a pin fails when
-  the physics, the rules, an env, the evaluator or the script's training changes its results,
-  or a seed stops being passed through: each pinned number was checked to move out of its band
-  under at least one of a seed one higher, the shuttle's gravity 2 % stronger (50 % for the
-  one-env TorchRL rollout's episode count), its contact radius 20 % larger, landings on either
-  side of the net counted in court, or the optimiser's steps skipped. A deliberate change
-  re-pins from the printed ``result:`` line; so does a machine whose torch rounds differently
-  (the pins were taken on the project's x86-64 VM, torch 2.13.0 CPU).
+- for scripts that train with torch, that a second run of the same command gives the same
+  ``result:`` line (``check_repeatable``): their seeds reach everything, on any machine. Their
+  exact numbers are not pinned: torch's kernels (ATen, MKL) round differently on other CPUs,
+  and no setting makes a training run bit-identical across CPUs (docs/numerics.md);
+- for scripts whose numbers come from the simulator and NumPy alone, those numbers, each held to
+  its pinned value (``check_pinned``, tests marked ``numerics``: they hold under the pinned
+  numerics of tests/conftest.py on any x86-64 CPU) within one unit of the printed precision.
+  A pin fails when the physics, the rules, an env or the evaluator changes its results, or a
+  seed stops being passed through; a deliberate change re-pins from the printed ``result:``
+  line.
 """
 
 from __future__ import annotations
@@ -34,11 +34,6 @@ from pathlib import Path
 import pytest
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
-
-# bands: one unit of the printed precision (rewards, returns and rally lengths to 0.001,
-# landing errors to 0.01 m); a rate over 64 evaluation episodes moves by 1/64 per episode
-RATE, REWARD, ERROR_M = 0.01, 0.0015, 0.015
-
 
 def run_example(name: str, *args: str, cwd: Path, quiet: bool = False,
                 env: dict[str, str] | None = None) -> list[dict[str, str]]:
@@ -71,6 +66,20 @@ def check_pinned(name: str, r: dict[str, str], pinned: dict[str, tuple[float, fl
                      "the example changed on purpose, re-pin from its result line.")
 
 
+def check_repeatable(name: str, r: dict[str, str] | list[dict[str, str]], *args: str,
+                     cwd: Path, env: dict[str, str] | None = None) -> None:
+    """A second run of ``examples/name --smoke args`` prints the same results as ``r``, bit
+    for bit (``speed`` and timing keys aside): seeded training is deterministic on a machine."""
+    again = run_example(name, *args, cwd=cwd, env=env)
+    first = r if isinstance(r, list) else [r]
+
+    def kept(rows: list[dict[str, str]]) -> list[dict[str, str]]:
+        return [{k: v for k, v in row.items() if not k.endswith(("_s", "per_s"))}
+                for row in rows]
+
+    assert kept(again) == kept(first), f"{name}: a second seeded run gave other results"
+
+
 def check_low_level(r: dict[str, str], steps: int) -> None:
     """Machine-independent bounds on the low-level task's evaluation numbers (64 episodes)."""
     assert int(r["steps"]) == steps
@@ -91,9 +100,8 @@ def test_sb3_ppo_and_its_export(tmp_path):
     [r] = run_example("sb3_ppo.py", "--save", str(tmp_path / "ppo"), cwd=tmp_path)
     check_low_level(r, 131_072)
     check_learned(r)
-    check_pinned("sb3_ppo.py", r, {
-        "mean_reward": (0.785, REWARD), "hit_rate": (0.750, RATE), "in_court": (0.0, RATE),
-        "landing_error_m": (8.47, ERROR_M)})
+    short = run_example("sb3_ppo.py", "--steps", "8192", cwd=tmp_path)
+    check_repeatable("sb3_ppo.py", short, "--steps", "8192", cwd=tmp_path)
     # The exported actor (safetensors + JSON, no pickle) is the policy the script evaluated.
     from rallysim.eval.low_eval import evaluate_return
     from rallysim.policies.mlp import load_policy
@@ -107,10 +115,8 @@ def test_sb3_sac(tmp_path):
     pytest.importorskip("stable_baselines3")
     [r] = run_example("sb3_sac.py", cwd=tmp_path)
     check_low_level(r, 3072)
-    # 3,072 steps: SAC has not learned yet, but its seeded run is pinned all the same
-    check_pinned("sb3_sac.py", r, {
-        "mean_reward": (0.051, REWARD), "hit_rate": (0.109, RATE), "in_court": (0.0, RATE),
-        "landing_error_m": (9.10, ERROR_M)})
+    # 3,072 steps: SAC has not learned yet, but its seeded run repeats exactly
+    check_repeatable("sb3_sac.py", r, cwd=tmp_path)
 
 
 def test_cleanrl_style_ppo(tmp_path):
@@ -118,9 +124,8 @@ def test_cleanrl_style_ppo(tmp_path):
     [r] = run_example("cleanrl_ppo.py", cwd=tmp_path)
     check_low_level(r, 131_072)
     check_learned(r)
-    check_pinned("cleanrl_ppo.py", r, {
-        "train_return": (0.708, REWARD), "mean_reward": (0.918, REWARD),
-        "hit_rate": (0.953, RATE), "in_court": (0.0, RATE), "landing_error_m": (7.87, ERROR_M)})
+    short = run_example("cleanrl_ppo.py", "--steps", "8192", cwd=tmp_path)
+    check_repeatable("cleanrl_ppo.py", short, "--steps", "8192", cwd=tmp_path)
 
 
 def test_cleanrl_style_ppo_rounds_steps_up_to_whole_rollouts_and_says_so(tmp_path):
@@ -149,6 +154,7 @@ def test_non_positive_steps_are_refused(script, steps, tmp_path):
             proc.stderr)
 
 
+@pytest.mark.numerics
 def test_torchrl_rollouts(tmp_path):
     pytest.importorskip("torchrl")
     single, batched, rally = run_example("torchrl_rollout.py", cwd=tmp_path)
@@ -165,20 +171,19 @@ def test_torchrl_rollouts(tmp_path):
         "PettingZooWrapper-simple_rally_v0.mean_step_reward": (0.0030, 1e-4)})
 
 
-@pytest.mark.parametrize(("vec", "pinned"), [
-    ("supersuit", {"train_return": (0.070, REWARD), "mean_rally": (0.125, 0.01)}),
-    ("native", {"train_return": (0.060, REWARD), "mean_rally": (0.125, 0.01)}),
-])
-def test_supersuit_sb3_rally(vec, pinned, tmp_path):
+@pytest.mark.parametrize("vec", ["supersuit", "native"])
+def test_supersuit_sb3_rally(vec, tmp_path):
     pytest.importorskip("stable_baselines3")
     if vec == "supersuit":
         pytest.importorskip("supersuit")
     # quiet: no warnings, SB3's "render_mode attribute is not defined" included
     [r] = run_example("supersuit_sb3.py", "--vec", vec, cwd=tmp_path, quiet=True)
     assert int(r["steps"]) == 2048 and int(r["rallies"]) == 16
-    check_pinned(f"supersuit_sb3.py --vec {vec}", r, pinned)
+    assert 0.0 <= number(r, "mean_rally") <= 50.0 and number(r, "train_return") >= 0.0
+    check_repeatable("supersuit_sb3.py", r, "--vec", vec, cwd=tmp_path)
 
 
+@pytest.mark.numerics
 def test_pettingzoo_random(tmp_path):
     [r] = run_example("pettingzoo_random.py", cwd=tmp_path)
     assert int(r["steps"]) == 500
@@ -193,8 +198,8 @@ def test_rllib_rally(tmp_path):
     # RLlib samples whole batches of 1,024 agent steps (rounded up to whole env steps)
     assert int(r["requested"]) == 2048 <= int(r["steps"]) < 2048 + 64
     assert int(r["rallies"]) == 16
-    check_pinned("rllib_rally.py", r, {"steps": (2052, 0), "train_return": (0.057, REWARD),
-                                       "mean_rally": (0.0, 0.01)})
+    assert 0.0 <= number(r, "mean_rally") <= 50.0 and number(r, "train_return") >= 0.0
+    check_repeatable("rllib_rally.py", r, cwd=tmp_path, env={"PYTHONHASHSEED": "0"})
 
 
 def test_rllib_rally_without_ray_names_the_extra(tmp_path):

@@ -69,6 +69,7 @@ def test_pretrained_humanlike_hierarchy_meets_the_targets(tmp_path):
     assert json.loads(path.read_text())["rally"]["mean"]["value"] < 0.5 * hierarchy
 
 
+@pytest.mark.numerics
 def test_shipped_humanlike_low_rl_is_scored_like_the_clone(tmp_path):
     """``humanlike_low_rl`` (PPO from scratch on HumanLikeReturn-v0, the paper's reward, no
     teacher; docs/rl-alone.md): ``evaluate --low NAME --json`` scores it on fresh serves like

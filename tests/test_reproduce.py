@@ -30,6 +30,14 @@ def test_reproduce_writes_the_report_json_and_plots(smoke_run):
     assert hrl["mean"]["low"] <= hrl["mean"]["value"] <= hrl["mean"]["high"]
     report = (out / "report.md").read_text()
     assert "| HRL |" in report and "20.25" in report  # beside the paper's number
+    # the CPU and numeric settings beside the table (the tests run pinned: tests/conftest.py)
+    from rallysim.numerics import PINNED, cpu_model, pinned_here
+
+    n = results["numerics"]
+    assert n["cpu"] == cpu_model() and n["pinned"] == pinned_here()
+    if pinned_here():
+        assert n["environment"].items() >= PINNED.items() and "; pinned (" in report
+    assert f"Numerics: CPU {cpu_model()} (" in report
     train = results["training"]["0"]
     # the Monolithic baseline got the hierarchy's budget in player-decisions
     assert train["mono"]["steps"] >= train["low"]["steps"] + 2 * train["high"][

@@ -365,6 +365,7 @@ def summarise(budget: Budget, curves: dict[int, dict[str, Any]], per_seed: dict[
     """Pooled and per-seed statistics of every method, the pairwise interval comparisons and
     the targets' checks, as one JSON-ready dict (what ``markdown_report`` renders)."""
     from rallysim.eval.stats import summarise_rallies
+    from rallysim.numerics import describe
 
     seeds = sorted(per_seed)
     for s in seeds:  # a bad value names its seed and method, not only the pooled table
@@ -402,6 +403,9 @@ def summarise(budget: Budget, curves: dict[int, dict[str, Any]], per_seed: dict[
     return {
         "budget": asdict(budget),
         "cap": cap,
+        # the CPU and numeric settings of the process that summarised (the workers inherit its
+        # environment): learning results differ in their bits between CPUs (docs/numerics.md)
+        "numerics": describe(),
         "wall_s": {"training": round(train_wall, 1), "total": round(total_wall, 1)},
         "paper": {"table_vii": PAPER_TABLE_VII, "low_level_reward": PAPER_LOW_REWARD},
         "methods": methods,
@@ -501,6 +505,17 @@ def report_tables(r: dict[str, Any]) -> list[str]:
     ]
 
 
+def numerics_line(r: dict[str, Any]) -> str:
+    """Which CPU and numeric settings the run used (docs/numerics.md), in one sentence."""
+    n = r.get("numerics")
+    if n is None:
+        return "Numerics: not recorded (a run from before they were)."
+    settings = ", ".join(f"`{k}={v}`" for k, v in n["environment"].items()) or "none set"
+    return (f"Numerics: CPU {n['cpu']} ({'with' if n['avx512'] else 'without'} AVX-512); "
+            f"{'pinned' if n['pinned'] else 'not pinned'} (`rallysim.numerics.PINNED`); "
+            f"variables: {settings}.")
+
+
 def markdown_report(r: dict[str, Any]) -> str:
     b = r["budget"]
     cap = r.get("cap", PAPER_CAP)
@@ -520,6 +535,8 @@ def markdown_report(r: dict[str, Any]) -> str:
         "Monolithic baseline the same total budget; each method then played "
         f"{b['rallies']} evaluation rallies per seed (capped at {cap} hits). Wall time "
         f"{r['wall_s']['total'] / 60:.1f} min (training {r['wall_s']['training'] / 60:.1f} min).",
+        "",
+        numerics_line(r),
         "",
         *report_tables(r),
     ]
