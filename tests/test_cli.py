@@ -214,6 +214,7 @@ def test_bad_cap_and_seeds_are_one_line_errors(argv, capsys):
     assert lines[0].startswith(f"rallysim {argv[0]}: error: argument {argv[1]}: ")
 
 
+@pytest.mark.numerics  # (the seeded episodes' lengths)
 @pytest.mark.parametrize("env, frames", [("rally", 44), ("low", 36)])
 def test_render_humanlike_writes_the_3d_rally_and_return(env, frames, tmp_path, capsys):
     """--player humanlike with the shipped pretrained levels: seed 3's rally (2 hits in 43

@@ -39,12 +39,18 @@ PINNED: dict[str, str] = {
     "NPY_DISABLE_CPU_FEATURES": " ".join(NUMPY_AVX512),
     # OpenBLAS's Haswell kernels (AVX2 + FMA) for its BLAS and LAPACK; Zen runs the same ones
     "OPENBLAS_CORETYPE": "Haswell",
-    # torch's ATen kernels and MKL's conditional-numerical-reproducibility branch at AVX2
+    # torch's ATen kernels at AVX2 (the same compiled code on any AVX2 CPU)
     "ATEN_CPU_CAPABILITY": "avx2",
-    "MKL_CBWR": "AVX2",
 }
+# A candidate for training runs that repeat bit for bit across CPU vendors: ``PINNED`` and MKL
+# (torch's SGEMM and the QR of SB3's initialisation) on its cross-vendor branch. MKL takes its
+# other branches (MKL_CBWR=AVX2, ...) only on Intel CPUs and runs its automatic choice on
+# others, so only COMPATIBLE names the same code on both. It costs about 30 % of the low stage's
+# speed; whether it gives equal bits on an Intel and an AMD CPU is not yet shown
+# (benchmarks/numerics_fingerprint.py, docs/numerics.md).
+TRAINING_CANDIDATE: dict[str, str] = {**PINNED, "MKL_CBWR": "COMPATIBLE"}
 # every variable that changes which kernels run (recorded by ``describe``)
-VARIABLES = (*PINNED, "DNNL_MAX_CPU_ISA", "ONEDNN_MAX_CPU_ISA", "OPENBLAS_L2_SIZE",
+VARIABLES = (*TRAINING_CANDIDATE, "DNNL_MAX_CPU_ISA", "ONEDNN_MAX_CPU_ISA", "OPENBLAS_L2_SIZE",
              "OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS")
 
 
