@@ -32,7 +32,10 @@ if WHY_UNPINNED is None:
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
+import rallysim  # noqa: E402
 from rallysim.core.game import Game  # noqa: E402
+
+rallysim.numerics = numerics  # (loaded above without the package: bind it as an import would)
 
 
 def pytest_collection_modifyitems(config, items):

@@ -214,6 +214,12 @@ def compute(names: list[str] | None = None) -> dict[str, str]:
 if __name__ == "__main__":
     if sys.argv[1:] != ["--write"]:
         sys.exit("usage: python tests/golden.py --write   (regenerates tests/data/golden.json)")
+    from rallysim.numerics import pinned_environ, pinned_here
+
+    if not pinned_here():  # the hashes are the pinned numerics' (docs/numerics.md)
+        import os
+
+        os.execve(sys.executable, [sys.executable, *sys.argv], pinned_environ())
     GOLDEN_FILE.parent.mkdir(exist_ok=True)
     GOLDEN_FILE.write_text(json.dumps(compute(), indent=1, sort_keys=True) + "\n")
     print(f"wrote {GOLDEN_FILE}")

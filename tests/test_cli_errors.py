@@ -439,6 +439,21 @@ def test_policy_loader_says_what_a_path_that_is_not_a_file_is(tmp_path, no_long_
     assert no_long_work == []
 
 
+def test_a_bare_prefix_whose_json_is_not_a_file_is_named_as_such(tmp_path, monkeypatch):
+    """A relative prefix with no separator ("dir") is a policy path when its JSON is there in
+    any form: the loader then says what that is, not "unknown policy" or "unknown player"."""
+    from rallysim.eval.agents import agent
+    from rallysim.policies.registry import PRETRAINED, resolve
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "dir.safetensors").write_bytes(
+        (PRETRAINED / "simple_high.safetensors").read_bytes())
+    (tmp_path / "dir.json").mkdir()
+    for load in (lambda: resolve("dir", "high"), lambda: agent("dir")):
+        with pytest.raises(ValueError, match=r"dir\.json is a directory, not a file"):
+            load()
+
+
 @pytest.mark.parametrize("text, want, problem", [
     ("", "dir", "empty"), ("a\0b", "file", "NUL"), ("x/", "file", "ends with '/'"),
     ("<file>", "dir", "not a directory"), ("<file>/a", "file", "not a directory"),

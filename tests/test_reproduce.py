@@ -58,9 +58,14 @@ def test_each_seeds_evaluation_is_kept_and_taken_again(smoke_run, tmp_path, monk
     from rallysim.train import reproduce
 
     out, results = smoke_run
+    from rallysim.policies.mlp import sha256_file
+
     for seed in (0, 1):
         doc = json.loads(reproduce.evaluation_path(out, seed, 50).read_text())
-        assert doc["settings"] == {"cap": 50, "rallies": 8, "low_eval_episodes": 64}
+        settings = doc["settings"]
+        assert settings["cap"] == 50 and settings["budget"]["rallies"] == 8
+        assert settings["policies"]["high"] == sha256_file(
+            out / "runs" / f"high_seed{seed}" / "policy.safetensors")
         assert doc["result"] == results["per_seed"][str(seed)]
     work = tmp_path / "copy"
     shutil.copytree(out, work)
@@ -75,13 +80,24 @@ def test_each_seeds_evaluation_is_kept_and_taken_again(smoke_run, tmp_path, monk
     doc = json.loads(path.read_text())
     doc["result"]["lengths"]["Random High-level"][3] = 54
     path.write_text(json.dumps(doc))
-    with pytest.raises(ValueError, match=r"seed 1, Random High-level: .*\[0, 50\], got \d+ to 54"):
+    with pytest.raises(ValueError, match=r"seed 1, Random High-level: .*\[0, 50\], got \d+ "
+                                         r"to 54 \(kept in .*seed1_cap50\.json; delete it"):
         run_reproduce(BUDGETS["smoke"], work, workers=1)
     assert reproduce.evaluation_path(work, 0, 50).is_file() and path.is_file()
-    # other settings (more rallies) play the evaluation again
-    assert reproduce.stored_evaluation(work, 0, BUDGETS["smoke"], 50) is not None
+    # other settings (more rallies, another warm start), a policy trained again or another
+    # numeric setting play the evaluation again
     from dataclasses import replace
-    assert reproduce.stored_evaluation(work, 0, replace(BUDGETS["smoke"], rallies=9), 50) is None
+
+    smoke = BUDGETS["smoke"]
+    assert reproduce.stored_evaluation(work, 0, smoke, 50) is not None
+    assert reproduce.stored_evaluation(work, 0, replace(smoke, rallies=9), 50) is None
+    assert reproduce.stored_evaluation(work, 0, replace(smoke, warm_start="scripted"), 50) is None
+    monkeypatch.setenv("OMP_NUM_THREADS", "7")
+    assert reproduce.stored_evaluation(work, 0, smoke, 50) is None
+    monkeypatch.undo()
+    weights = work / "runs" / "mono_seed0" / "policy.safetensors"
+    weights.write_bytes(weights.read_bytes()[:-1] + b"\0")
+    assert reproduce.stored_evaluation(work, 0, smoke, 50) is None
 
 
 def _weight_hashes(out) -> dict[str, str]:

@@ -14,11 +14,11 @@ that side's actions. Two shapes cover every policy RallySim has:
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
 
+from rallysim.jsondoc import MISSING, not_a_file, read_object
 from rallysim.players import PLAYERS, SIMPLE, PlayerSpec, get_player
 from rallysim.policies.callables import FixedGoal
 from rallysim.policies.registry import PRETRAINED, resolve
@@ -94,11 +94,13 @@ def agent(name: str, player: str | PlayerSpec = "simple", seed: int = 0,
     if compete_prefix(name) and name != f"{p.name}_compete":
         raise ValueError(f"{name!r} is a {name[:-len('_compete')]} player: play it as one "
                          f"(--player {name[:-len('_compete')]}), not as a {p.name} player")
-    if name == f"{p.name}_compete" and not prefix.with_suffix(".json").is_file():
+    there = not_a_file(prefix.with_suffix(".json")) != MISSING  # (of any kind: the loader
+    # then says what it is, a directory say)
+    if name == f"{p.name}_compete" and not there:
         # a valid name whose policy is missing: "unknown" (listing the name as valid) misled
         raise ValueError(f"{name!r} is not shipped yet in this installation ({prefix}.json is "
                          "missing); train one and pass its path prefix instead")
-    if not prefix.with_suffix(".json").is_file():
+    if not there:
         valid = ", ".join(map(repr, AGENT_NAMES))
         raise ValueError(f"unknown competitive player {name!r}; valid: {valid}, or the path "
                          "prefix of an exported high-level or Monolithic policy (PREFIX.json)")
@@ -125,8 +127,8 @@ def policy_player(prefix: Path) -> str | None:
     the one whose rally observation is as long as the policy's input; None where no kind's
     is (not a rally policy: loading it as one says why)."""
     try:
-        sizes = json.loads(prefix.with_suffix(".json").read_text())["architecture"]["sizes"]
-    except (OSError, ValueError, KeyError, TypeError):
+        sizes = read_object(prefix.with_suffix(".json"), "policy")["architecture"]["sizes"]
+    except (ValueError, KeyError, TypeError, IndexError):
         return None
     kinds = [k for k, spec in PLAYERS.items() if spec.rally_obs.size == sizes[0]]
     return kinds[0] if len(kinds) == 1 else None
@@ -138,7 +140,7 @@ DIRECT_STAGES = ("mono", "compete_mono")
 
 def _role(prefix: Path) -> str:
     """``mono`` for a policy that acts on the rally every decision, else ``high``."""
-    doc = json.loads(prefix.with_suffix(".json").read_text())
-    metadata = doc.get("metadata") if isinstance(doc, dict) else None
+    doc = read_object(prefix.with_suffix(".json"), "policy")  # (says what a non-file is)
+    metadata = doc.get("metadata")
     stage = metadata.get("stage") if isinstance(metadata, dict) else None
     return "mono" if stage in DIRECT_STAGES else "high"

@@ -118,9 +118,13 @@ def _fixed_goal(spec: str, p: PlayerSpec) -> float | np.ndarray:
 
 
 def _looks_like_path(spec: str) -> bool:
-    """A path prefix names a file or a folder part: an existing PREFIX.json, or a path with a
-    separator (whose missing file is then reported by the loader)."""
-    return Path(spec).with_suffix(".json").is_file() or "/" in spec or "\\" in spec
+    """A path prefix names a file or a folder part: a PREFIX.json that is there (of any kind:
+    the loader then says what it is), or a path with a separator (whose missing file is then
+    reported by the loader)."""
+    from rallysim.jsondoc import MISSING, not_a_file
+
+    return (not_a_file(Path(spec).with_suffix(".json")) != MISSING or "/" in spec
+            or "\\" in spec)
 
 
 def _refuse(spec: str, role: str, p: PlayerSpec) -> NoReturn:

@@ -229,30 +229,38 @@ def evaluation_path(out: Path, seed: int, cap: int) -> Path:
     return out / "evaluations" / f"seed{seed}_cap{cap}.json"
 
 
-def _evaluation_settings(budget: Budget, cap: int) -> dict[str, int]:
-    """What an evaluation on disk must have been played with to be taken again."""
-    return {"cap": cap, "rallies": budget.rallies, "low_eval_episodes": budget.low_eval_episodes}
+def _evaluation_settings(out: Path, seed: int, budget: Budget, cap: int) -> dict[str, Any]:
+    """What an evaluation on disk must have been played with to be taken again: the cap, the
+    budget (its seed count aside), the numeric settings and the SHA-256 of each policy it
+    played."""
+    from rallysim.numerics import describe
+    from rallysim.policies.mlp import sha256_file
+
+    policies = {}
+    for stage in METHOD_STAGES:
+        path = out / "runs" / f"{stage}_seed{seed}" / "policy.safetensors"
+        policies[stage] = sha256_file(path) if path.is_file() else None
+    return {"cap": cap, "budget": {k: v for k, v in asdict(budget).items() if k != "seeds"},
+            "numerics": describe()["environment"], "policies": policies}
 
 
 def stored_evaluation(out: Path, seed: int, budget: Budget, cap: int) -> dict[str, Any] | None:
     """The seed's evaluation from an earlier run, if one was played with the same settings
-    (and its policies are not newer than it); None otherwise."""
+    and policies (``_evaluation_settings``); None otherwise, or where the file is damaged."""
     from rallysim.jsondoc import read_object
 
     path = evaluation_path(out, seed, cap)
-    if not path.is_file():
+    if not path.exists():
         return None
-    policies = [out / "runs" / f"{stage}_seed{seed}" / "policy.safetensors"
-                for stage in METHOD_STAGES]
-    if any(p.is_file() and p.stat().st_mtime > path.stat().st_mtime for p in policies):
-        return None  # a stage was trained again since
     try:
         doc = read_object(path, "evaluation")
     except ValueError:
-        return None  # damaged (a crash mid-write cannot do it): played again
-    if doc.get("settings") != _evaluation_settings(budget, cap):
+        return None  # (a crash mid-write cannot leave one: written atomically)
+    result = doc.get("result")
+    if doc.get("settings") != _evaluation_settings(out, seed, budget, cap) or not (
+            isinstance(result, dict) and isinstance(result.get("lengths"), dict)):
         return None
-    return doc["result"]
+    return result
 
 
 def check_lengths(result: dict[str, Any], seed: int, cap: int) -> None:
@@ -274,6 +282,7 @@ def run_seed_step(seed: int, step: str, budget: Budget, out: Path, curves: dict[
 
     if step != "evaluate":
         return train_seed_stage(seed, step, budget, out, curves, queue)
+    path = evaluation_path(out, seed, cap)
     result = stored_evaluation(out, seed, budget, cap)
     if result is not None:
         _say(queue, f"[seed {seed}] evaluation at cap {cap}: already played, read back")
@@ -282,11 +291,15 @@ def run_seed_step(seed: int, step: str, budget: Budget, out: Path, curves: dict[
                        unit="rally sets") as beat:
             result = evaluate_seed(seed, out, budget.rallies, budget.low_eval_episodes, cap,
                                    beat)
-        path = evaluation_path(out, seed, cap)
         path.parent.mkdir(parents=True, exist_ok=True)
-        doc = {"seed": seed, "settings": _evaluation_settings(budget, cap), "result": result}
+        doc = {"seed": seed, "settings": _evaluation_settings(out, seed, budget, cap),
+               "result": result}
         atomic_write(path, json.dumps(doc).encode())
-    check_lengths(result, seed, cap)
+    try:
+        check_lengths(result, seed, cap)
+    except ValueError as err:
+        raise ValueError(f"{err} (kept in {path}; delete it to play the evaluation again)"
+                         ) from None
     hrl = np.mean(result["lengths"]["HRL"])
     _say(queue, f"[seed {seed}] evaluated: HRL mean rally {hrl:.2f} (cap {cap})")
     return result
