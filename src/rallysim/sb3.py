@@ -32,7 +32,6 @@ Needs Stable-Baselines3 (the ``train`` extra).
 
 from __future__ import annotations
 
-import inspect
 import numbers
 from typing import Any
 
@@ -76,19 +75,6 @@ def _native_class(spec: gym.envs.registration.EnvSpec) -> type | None:
     creator = load_env_creator(entry) if isinstance(entry, str) else entry
     native = isinstance(creator, type) and issubclass(creator, NativeVectorEnv)
     return creator if native else None
-
-
-def _check_kwargs(env_id: str, cls: Any, kwargs: dict[str, Any]) -> None:
-    """Name an argument the env does not take (instead of a ``TypeError`` from deep inside
-    Gymnasium's ``make_vec``)."""
-    params = inspect.signature(cls.__init__).parameters
-    if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params.values()):
-        return  # the env checks its own extra arguments (the rally's RallyConfig)
-    valid = [k for k in params if k not in ("self", *_RESERVED_KWARGS)]
-    unknown = sorted(k for k in kwargs if k not in valid)
-    if unknown:
-        raise ValueError(f"{env_id} takes no argument(s) {unknown}; its env_kwargs: "
-                         f"{', '.join(valid)}")
 
 
 def _refuse_per_env_arguments(**given: Any) -> None:
@@ -158,12 +144,16 @@ def make_vec_env(env_id: str, n_envs: int = 1, seed: int | None = None,
         raise ValueError(f"the vector entry point of {env_id!r} ({spec.vector_entry_point}) "
                          f"is not a RallySim batched env, which this adapter needs for its "
                          f"same-step autoreset: use {_SB3_HINT}")
-    _check_kwargs(env_id, cls, kwargs)
     if seed is not None:
         # also to the constructor, so nothing drawn before the first reset is unseeded
         kwargs["seed"] = seed
-    venv = gym.make_vec(env_id, num_envs=n_envs, vectorization_mode="vector_entry_point",
-                        autoreset_mode="same_step", **kwargs)
+    try:
+        venv = gym.make_vec(env_id, num_envs=n_envs, vectorization_mode="vector_entry_point",
+                            autoreset_mode="same_step", **kwargs)
+    except TypeError as err:  # every env names an argument it does not take, and the valid ones
+        if "unexpected keyword argument" not in str(err):
+            raise
+        raise ValueError(f"{env_id} {err}") from None
     vec = NativeVecEnv(venv)
     if seed is not None:
         # SB3's convention: seeds seed + i are used at the next reset (SB3's VecEnv.seed(None)
