@@ -8,14 +8,13 @@ The views themselves are one module per game: ``simple_rally_v0`` / ``humanlike_
 
 from __future__ import annotations
 
-import inspect
 from typing import Any
 
 import numpy as np
 from gymnasium import spaces
 
 from rallysim.core.tasks.rally import RallyConfig, RallyTask
-from rallysim.core.validation import positive_int
+from rallysim.core.validation import keyword_names, positive_int
 from rallysim.envs.rendering import EnvView
 from rallysim.players import PlayerSpec
 
@@ -41,10 +40,7 @@ def goal_space(spec: PlayerSpec) -> spaces.Box:
 def rally_config(view: object, config: dict[str, Any]) -> RallyConfig:
     """A view's rules from its extra keyword arguments; an unknown one is named along with every
     valid argument, the view constructor's own included."""
-    params = inspect.signature(type(view).__init__).parameters.values()
-    named = (inspect.Parameter.POSITIONAL_OR_KEYWORD, inspect.Parameter.KEYWORD_ONLY)
-    own = [p.name for p in params if p.kind in named and p.name != "self"]
-    return RallyConfig.from_kwargs(config, own)
+    return RallyConfig.from_kwargs(config, keyword_names(type(view).__init__))
 
 
 def render_rally(view: EnvView, task: RallyTask, env: int,
