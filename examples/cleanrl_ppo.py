@@ -1,4 +1,4 @@
-"""Single-file PPO (continuous actions) on RallySim/SimpleReturn-v0, in CleanRL's style.
+"""Single-file PPO (continuous actions) on the SIMPLE low-level task, in CleanRL's style.
 
     python examples/cleanrl_ppo.py               # about 1M steps, under two minutes on two cores
     python examples/cleanrl_ppo.py --smoke       # 131,072 steps: a quick check that it learns
@@ -46,10 +46,14 @@ import numpy as np
 import torch
 from torch import nn
 
-import rallysim  # noqa: F401  (registers RallySim/SimpleReturn-v0)
+import rallysim  # noqa: F401  (registers the RallySim/... ids)
 from rallysim.eval.low_eval import evaluate_return
 
-ENV_ID = "RallySim/SimpleReturn-v0"
+# The paper's low-level task: SimpleReturn-v1 with goals="uniform" is SimpleReturn-v0 step for
+# step (v1 only changes the default goal distribution), without Gymnasium's notice that
+# v0 is out of date.
+ENV_ID = "RallySim/SimpleReturn-v1"
+ENV_KWARGS = {"goals": "uniform"}
 DEFAULT_STEPS, SMOKE_STEPS = 1_000_000, 131_072
 
 
@@ -224,7 +228,7 @@ def main() -> None:
     torch.set_num_threads(1)  # on a small CPU a second thread competes with the simulator
 
     envs = gym.make_vec(ENV_ID, num_envs=args.num_envs, vectorization_mode="vector_entry_point",
-                        autoreset_mode="same_step")
+                        autoreset_mode="same_step", **ENV_KWARGS)
     model = ActorCritic(envs.single_observation_space.shape[0],
                         envs.single_action_space.shape[0], args.hidden, args.log_std_init)
     optim = torch.optim.Adam(model.parameters(), lr=args.lr)

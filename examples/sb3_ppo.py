@@ -1,4 +1,4 @@
-"""Stable-Baselines3 PPO on RallySim/SimpleReturn-v0 through RallySim's batched VecEnv.
+"""Stable-Baselines3 PPO on the SIMPLE low-level task through RallySim's batched VecEnv.
 
     python examples/sb3_ppo.py                    # 1M steps, about 90 s on two cores
     python examples/sb3_ppo.py --smoke            # 131,072 steps: a quick check that it learns
@@ -11,7 +11,7 @@ environments stepped in one call); ``--vec sb3`` builds SB3's ``DummyVecEnv`` of
 env per environment instead (same dynamics, same seeds; measured 4x slower end to end with
 these settings, 2,800 against 12,000 steps/s, PPO's own updates included).
 
-The settings are RallySim's own for this task (run A of ``docs/training-notes.md``, the
+The settings are RallySim's own for this task (run A of ``docs/research-log/training-notes.md``, the
 defaults of ``rallysim train low`` but for its rollout shape and lr decay): 64 envs x 64 steps per
 update, minibatches of 1024, 10 epochs, lr 3e-4, a 64x64 tanh MLP and a log-std started at
 -0.5 (std 0.61). ``--sb3-defaults`` uses SB3's own PPO settings instead (n_steps 2048,
@@ -37,7 +37,11 @@ from stable_baselines3.common.env_util import make_vec_env as sb3_make_vec_env
 from rallysim.eval.low_eval import evaluate_return
 from rallysim.sb3 import make_vec_env
 
-ENV_ID = "RallySim/SimpleReturn-v0"
+# The paper's low-level task: SimpleReturn-v1 with goals="uniform" is SimpleReturn-v0 step for
+# step (v1 only changes the default goal distribution), without Gymnasium's notice that
+# v0 is out of date.
+ENV_ID = "RallySim/SimpleReturn-v1"
+ENV_KWARGS = {"goals": "uniform"}
 
 
 def positive_int(text: str) -> int:
@@ -67,9 +71,10 @@ def main() -> None:
     # One torch thread: on a small CPU a second thread competes with the simulator.
     torch.set_num_threads(1)
     if args.vec == "rallysim":
-        env = make_vec_env(ENV_ID, n_envs=args.n_envs, seed=args.seed)
+        env = make_vec_env(ENV_ID, n_envs=args.n_envs, seed=args.seed, env_kwargs=ENV_KWARGS)
     else:
-        env = sb3_make_vec_env(ENV_ID, n_envs=args.n_envs, seed=args.seed)
+        env = sb3_make_vec_env(ENV_ID, n_envs=args.n_envs, seed=args.seed,
+                               env_kwargs=ENV_KWARGS)
     if args.sb3_defaults:
         model = PPO("MlpPolicy", env, seed=args.seed, device="cpu", verbose=0)
     else:

@@ -1,4 +1,4 @@
-"""Stable-Baselines3 SAC on RallySim/SimpleReturn-v0 through RallySim's batched VecEnv.
+"""Stable-Baselines3 SAC on the SIMPLE low-level task through RallySim's batched VecEnv.
 
     python examples/sb3_sac.py                   # 200k steps, about 3 minutes on two cores
     python examples/sb3_sac.py --smoke           # 3,072 steps: runs, does not learn yet (CI)
@@ -27,7 +27,11 @@ from stable_baselines3 import SAC
 from rallysim.eval.low_eval import evaluate_return
 from rallysim.sb3 import make_vec_env
 
-ENV_ID = "RallySim/SimpleReturn-v0"
+# The paper's low-level task: SimpleReturn-v1 with goals="uniform" is SimpleReturn-v0 step for
+# step (v1 only changes the default goal distribution), without Gymnasium's notice that
+# v0 is out of date.
+ENV_ID = "RallySim/SimpleReturn-v1"
+ENV_KWARGS = {"goals": "uniform"}
 
 
 def positive_int(text: str) -> int:
@@ -50,7 +54,7 @@ def main() -> None:
     episodes = 64 if args.smoke else 500
 
     torch.set_num_threads(1)  # on a small CPU a second thread competes with the simulator
-    env = make_vec_env(ENV_ID, n_envs=args.n_envs, seed=args.seed)
+    env = make_vec_env(ENV_ID, n_envs=args.n_envs, seed=args.seed, env_kwargs=ENV_KWARGS)
     model = SAC(
         "MlpPolicy", env,
         train_freq=1, gradient_steps=4, batch_size=512,

@@ -5,7 +5,8 @@
 
 Three rollouts with a random policy, each a TensorDict of the steps:
 
-1. ``GymEnv("RallySim/SimpleReturn-v0")``: TorchRL builds the registered single env by id.
+1. ``GymEnv("RallySim/SimpleReturn-v1", goals="uniform")``: TorchRL builds the registered single
+   env by id (the paper's task: v1 with v0's uniform goals).
 2. ``GymWrapper(gym.make_vec(..., vectorization_mode="vector_entry_point"))``: the same task,
    64 environments in one batched MuJoCo model (TorchRL needs a vector env that resets in the
    same step, ``autoreset_mode="same_step"``).
@@ -25,10 +26,14 @@ import gymnasium as gym
 import torch
 from torchrl.envs import GymEnv, GymWrapper, PettingZooWrapper
 
-import rallysim  # noqa: F401  (registers RallySim/SimpleReturn-v0)
+import rallysim  # noqa: F401  (registers the RallySim/... ids)
 from rallysim.envs.simple_rally_v0 import parallel_env
 
-ENV_ID = "RallySim/SimpleReturn-v0"
+# The paper's low-level task: SimpleReturn-v1 with goals="uniform" is SimpleReturn-v0 step for
+# step (v1 only changes the default goal distribution), without Gymnasium's notice that
+# v0 is out of date.
+ENV_ID = "RallySim/SimpleReturn-v1"
+ENV_KWARGS = {"goals": "uniform"}
 
 
 def rollout(name: str, env, steps: int, reward_key, done_key) -> None:
@@ -66,11 +71,11 @@ def main() -> None:
     steps = args.steps if args.steps is not None else (200 if args.smoke else 2000)
 
     # 1. TorchRL makes the registered id itself (one env, one MuJoCo model)
-    rollout("GymEnv", GymEnv(ENV_ID), steps, ("reward",), ("done",))
+    rollout("GymEnv", GymEnv(ENV_ID, **ENV_KWARGS), steps, ("reward",), ("done",))
 
     # 2. the batched vector env wrapped: one rollout step is a step of all 64 environments
     vec = gym.make_vec(ENV_ID, num_envs=64, vectorization_mode="vector_entry_point",
-                       autoreset_mode="same_step")
+                       autoreset_mode="same_step", **ENV_KWARGS)
     rollout("GymWrapper-make_vec-x64", GymWrapper(vec), steps, ("reward",), ("done",))
 
     # 3. the PettingZoo parallel rally; a rally ends for both players at once, and each

@@ -98,7 +98,8 @@ def check_learned(r: dict[str, str]) -> None:
 
 def test_sb3_ppo_and_its_export(tmp_path):
     pytest.importorskip("stable_baselines3")
-    [r] = run_example("sb3_ppo.py", "--save", str(tmp_path / "ppo"), cwd=tmp_path)
+    # quiet: the documented example prints no warning (no DeprecationWarning for an old id)
+    [r] = run_example("sb3_ppo.py", "--save", str(tmp_path / "ppo"), cwd=tmp_path, quiet=True)
     check_low_level(r, 131_072)
     check_learned(r)
     short = run_example("sb3_ppo.py", "--steps", "8192", cwd=tmp_path)
