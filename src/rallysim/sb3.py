@@ -8,7 +8,7 @@ over that batched env, so a training script that builds its env from ``env_id``,
 ``seed`` and ``env_kwargs`` changes one import::
 
     from rallysim.sb3 import make_vec_env      # instead of stable_baselines3's
-    env = make_vec_env("RallySim/SimpleReturn-v0", n_envs=256, seed=0)
+    env = make_vec_env("RallySim/SimpleReturn-v1", n_envs=256, seed=0)
     model = PPO("MlpPolicy", env, ...)
 
 SB3's other arguments build things around each of its per-environment env objects (a

@@ -3,8 +3,12 @@
 Every id has a single env (``gym.make``) and a native vector env (``gym.make_vec``: its
 ``vector_entry_point``, all games stepped in one call), both in ``rallysim.envs``:
 
-- ``RallySim/SimpleReturn-v0``: ``simple_return_v0.SimpleReturnEnv`` /
-  ``SimpleReturnVectorEnv``; action ``Box(-1, 1, (3,))``.
+- ``RallySim/SimpleReturn-v1``: ``simple_return_v0.SimpleReturnEnv`` /
+  ``SimpleReturnVectorEnv`` with ``goals="reachable"``; action ``Box(-1, 1, (3,))``. The
+  current id of the SIMPLE low-level task: it differs from v0 only in its default goal
+  distribution, and ``goals="uniform"`` gives v0's (the paper's), step for step.
+- ``RallySim/SimpleReturn-v0``: the same classes, goals uniform over [2, 6] m; kept unchanged for
+  old code (Gymnasium warns on ``make`` that v1 exists).
 - ``RallySim/HumanLikeReturn-v0``: ``humanlike_return_v0.HumanLikeReturnEnv`` /
   ``HumanLikeReturnVectorEnv``; action ``Box(-1, 1, (15,))``.
 - ``RallySim/SimpleRallyTurn-v0``: ``simple_rally_turn_v0.SimpleRallyTurnEnv`` /
