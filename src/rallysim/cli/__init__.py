@@ -32,7 +32,7 @@ lists a command's options with their defaults."""
 def build_parser() -> argparse.ArgumentParser:
     parser = Parser(prog="rallysim", description=DESCRIPTION, formatter_class=HelpFormatter)
     sub = parser.add_subparsers(dest="command", required=True, metavar="command",
-                                title="commands")
+                                title="commands", help="what to do")
     for command in COMMANDS:
         command.add_parser(sub)
     return parser
