@@ -4,11 +4,13 @@ formatter, argument types, options several commands take, and the policies they 
 from __future__ import annotations
 
 import argparse
+import functools
 import sys
 from collections.abc import Callable
 from typing import NoReturn
 
 from rallysim.core.shuttle import SHUTTLE_MODELS
+from rallysim.numerics import blas_threads
 
 # TrainConfig's bound (train/config.py SEED_MAX; not imported: it needs the train extra's yaml)
 SEED_MAX = 2**31 - 1
@@ -56,6 +58,20 @@ def add_command(sub: argparse._SubParsersAction, name: str, help_text: str,
     unless given."""
     return sub.add_parser(name, help=help_text, description=description or help_text,
                           formatter_class=HelpFormatter, **kwargs)
+
+
+def numpy_policies(run: Callable[[argparse.Namespace], int]
+                   ) -> Callable[[argparse.Namespace], int]:
+    """For a command that runs the policies in NumPy: OpenBLAS on one thread while it runs
+    (``rallysim.numerics.blas_threads``: a fraction of the time on small products, and the
+    same numbers on any number of cores)."""
+
+    @functools.wraps(run)
+    def one_thread(args: argparse.Namespace) -> int:
+        with blas_threads(1):
+            return run(args)
+
+    return one_thread
 
 
 def integer_at_least(low: int, high: int | None = None) -> Callable[[str], int]:

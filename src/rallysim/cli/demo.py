@@ -9,6 +9,7 @@ from rallysim.cli.common import (
     add_command,
     add_player,
     add_shuttle_and_seed,
+    numpy_policies,
     positive,
 )
 
@@ -26,6 +27,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     demo.set_defaults(run=run)
 
 
+@numpy_policies
 def run(args: argparse.Namespace) -> int:
     """Play the low-level task (SIMPLE or HUMAN-LIKE) with the scripted controller (or
     ``--policy``) and print what happened."""

@@ -16,6 +16,7 @@ from rallysim.cli.common import (
     add_command,
     add_shuttle,
     hits_cap,
+    numpy_policies,
     positive,
     say_deprecated,
     seed_value,
@@ -316,6 +317,7 @@ def _low_level_player(low: str) -> str | None:
     return "humanlike" if env_id == HUMANLIKE_RETURN_ID else "simple"
 
 
+@numpy_policies
 def run(args: argparse.Namespace) -> int:
     """Evaluate HRL, Random High-level and Monolithic (pretrained or given policies), or a
     HUMAN-LIKE low level and its 3-D rally; or, with ``--mode competitive``, players in games

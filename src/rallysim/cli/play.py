@@ -13,6 +13,7 @@ from rallysim.cli.common import (
     add_command,
     add_player,
     add_shuttle_and_seed,
+    numpy_policies,
     policies,
     positive_seconds,
     rally_policies,
@@ -55,6 +56,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     play.set_defaults(run=run)
 
 
+@numpy_policies
 def run(args: argparse.Namespace) -> int:
     """Open MuJoCo's viewer on a live rally; optionally take part by keyboard (a SIMPLE
     player's actions, a HUMAN-LIKE player's goals)."""

@@ -15,6 +15,7 @@ from rallysim.cli.common import (
     add_player,
     add_shuttle_and_seed,
     integer_at_least,
+    numpy_policies,
     policies,
     positive,
     positive_seconds,
@@ -85,6 +86,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     render.set_defaults(run=run)
 
 
+@numpy_policies
 def run(args: argparse.Namespace) -> int:
     """Write an MP4, a GIF and a strip of stills of N episodes (or rallies), or of competitive
     games between two agents (``--players``)."""
