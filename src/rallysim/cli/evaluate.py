@@ -23,8 +23,10 @@ from rallysim.cli.common import (
 )
 from rallysim.cli.paths import out_file
 
-# cooperative defaults (the paper's cap: rallysim.eval.rally_eval.PAPER_CAP)
-RALLIES, SEEDS, EPISODES, PAPER_CAP = 100, 3, 500, 50
+# cooperative defaults (the paper's cap: rallysim.eval.rally_eval.PAPER_CAP). One evaluation
+# seed keeps a look at the shipped policies to seconds (three took 20-60 s, most of it the
+# rallies); each mean is printed with its 95 % interval, and --seeds 3 narrows it.
+RALLIES, SEEDS, EPISODES, PAPER_CAP = 100, 1, 500, 50
 # evaluate --mode competitive: the defaults of its options (None on the parser, so that an
 # option given in cooperative mode is seen and refused)
 COMPETITIVE_GAMES = 16
@@ -109,15 +111,26 @@ def _losses_line(name: str, s: dict) -> str:
             f"per later hit {pct('later_miss_rate', 2)}")
 
 
+def _seeds(args: argparse.Namespace) -> str:
+    return f"{args.seeds} evaluation seed{'s' if args.seeds > 1 else ''}"
+
+
 def _evaluate_humanlike(args: argparse.Namespace) -> dict:
     """A HUMAN-LIKE low level on fresh serves and the 3-D rally it plays."""
-    from rallysim.eval.humanlike_eval import evaluate_humanlike_player
+    from rallysim.eval.humanlike_eval import evaluate_humanlike_player, rally_goals
+    from rallysim.policies.registry import resolve
 
     if args.cap != PAPER_CAP:
         raise UsageError("--cap applies to SIMPLE rallies only")
+    high = args.high or "pretrained"
+    # a bad policy name or file fails here, before the header and the long work
+    resolve(args.low, "low", "humanlike"), rally_goals(high)
     say_deprecated("evaluate", args.deprecated)
-    results = evaluate_humanlike_player(args.low, args.high or "pretrained", args.episodes,
-                                        args.rallies, args.seeds, args.shuttle)
+    print(f"evaluate: HUMAN-LIKE low level {args.low} on {args.episodes} fresh serves, then "
+          f"its 3-D rally for {high} goals, {args.rallies} rallies from each of {_seeds(args)}"
+          "; [95 % intervals]", flush=True)
+    results = evaluate_humanlike_player(args.low, high, args.episodes, args.rallies,
+                                        args.seeds, args.shuttle)
     r, t = results["low_level"], results["targets"]
     print(f"low level {args.low}: {r['episodes']} serves, hit rate {r['hit_rate']:.3f} "
           f"(target >= {t['hit_rate']}), mean angle error {r['mean_angle_error']:.2f} deg "
@@ -135,10 +148,16 @@ def _evaluate_simple(args: argparse.Namespace) -> dict:
     from rallysim.policies.registry import resolve
     from rallysim.train.progress import Heartbeat, progress_lines
 
-    # a bad policy name or file fails here, before the long work
+    # a bad policy name or file fails here, before the header and the long work
     resolve(args.low, "low"), resolve(args.high or "pretrained", "high")
     resolve(args.mono, "mono")
     say_deprecated("evaluate", args.deprecated)
+    named = {"low": args.low, "high": args.high or "pretrained", "mono": args.mono}
+    which = ("the shipped policies" if set(named.values()) == {"pretrained"}
+             else ", ".join(f"{level} {name}" for level, name in named.items()))
+    print(f"evaluate: HRL, Random High-level and Monolithic with {which}, {args.rallies} "
+          f"rallies each from each of {_seeds(args)}, capped at {args.cap} hits; then the low "
+          f"level on {args.episodes} fresh serves; [95 % intervals]", flush=True)
     say = progress_lines()
     beat = None if say is None else Heartbeat("[evaluate]", 3 * args.seeds, say,
                                               unit="rally sets")
