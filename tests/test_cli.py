@@ -233,3 +233,20 @@ def test_render_humanlike_writes_the_3d_rally_and_return(env, frames, tmp_path, 
     assert mp4.shape == (frames, 96, 160, 3)
     assert f"({frames} frames)" in capsys.readouterr().out
     assert stem.with_name(stem.name + "_strip.png").stat().st_size > 1000
+
+
+@pytest.mark.parametrize("argv, header", [
+    ([], "evaluate: HRL, Random High-level and Monolithic with the shipped policies, 2 rallies "
+         "each from each of 1 evaluation seed, capped at 50 hits; then the low level on 16 "
+         "fresh serves; [95 % intervals]"),
+    (["--player", "humanlike"], "evaluate: HUMAN-LIKE low level pretrained on 16 fresh serves, "
+     "then its 3-D rally for pretrained goals, 2 rallies from each of 1 evaluation seed; "
+     "[95 % intervals]"),
+])
+def test_evaluate_says_first_what_it_measures(argv, header, capsys):
+    """The first line names the policies, the rallies and seeds, the cap and the serves; the
+    results follow with their intervals."""
+    assert main(["evaluate", *argv, "--rallies", "2", "--episodes", "16"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0] == header
+    assert any("mean rally" in line and " [" in line for line in lines[1:])

@@ -153,7 +153,7 @@ def test_load_actor_refuses_another_shape(tmp_path):
 
 # -- the study -----------------------------------------------------------------------------------
 def test_a_tiny_flat_study(tmp_path, monkeypatch):
-    from rallysim.train import compete_flat_study as flat
+    from experiments import compete_flat_study as flat
 
     monkeypatch.setattr(flat, "OPPONENTS", ("scripted", "mono"))
     tiny = {k: v for k, v in TINY.items() if k != "budget"}

@@ -1,4 +1,4 @@
-"""The competitive study (``rallysim.train.compete_study``) on a tiny budget: one seed's
+"""The competitive study (``experiments/compete_study.py``) on a tiny budget: one seed's
 champion, games, ratings and best response, the pooled report, and its rendered tables; and
 docs/competitive.md's generated tables match the committed JSON."""
 
@@ -13,7 +13,7 @@ import pytest
 pytest.importorskip("torch")
 pytest.importorskip("stable_baselines3")
 
-from rallysim.train import compete_study as study
+from experiments import compete_study as study
 from rallysim.train.results_doc import regenerate
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -7,7 +7,7 @@ import json
 
 import pytest
 
-from rallysim.train.low_curves_study import collect, main, render, seed_points
+from experiments.low_curves_study import collect, main, render, seed_points
 from rallysim.train.reproduce import BUDGETS
 
 

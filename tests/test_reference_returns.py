@@ -1,4 +1,4 @@
-"""benchmarks/reference_returns.py: seeded runs of PPO and SAC on the tasks, pooled into the
+"""experiments/reference_returns.py: seeded runs of PPO and SAC on the tasks, pooled into the
 table docs/rl-alone.md renders."""
 
 from __future__ import annotations
@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from rallysim.train.reference_returns import TASKS, pool, render, run_one
+from experiments.reference_returns import TASKS, pool, render, run_one
 
 
 def test_a_run_is_seeded_and_scores_its_task():
@@ -56,9 +56,9 @@ def _fixed_aim_episode(goal: float, seed: int = 3, envs: int = 32):
     """Each env's first episode under the goal view, the scripted controller aiming at 4 m
     whatever the env's goal (so the play is the same for every goal): per step the rewards,
     the achieved goals of the next observations (terminal ones at the end), the infos."""
+    from experiments.reference_returns import NO_LANDING, GoalReturnVecEnv
     from rallysim.policies import ScriptedController
     from rallysim.sb3 import make_vec_env
-    from rallysim.train.reference_returns import NO_LANDING, GoalReturnVecEnv
 
     env = GoalReturnVecEnv(make_vec_env("RallySim/SimpleReturn-v0", n_envs=envs, seed=seed))
     env.set_options({"target_depth": goal})
@@ -84,7 +84,7 @@ def test_the_goal_view_relabels_with_the_envs_own_reward():
     and under goal 5 m; ``compute_reward`` of the 3 m play's achieved goals for the 5 m goal
     gives, step by step, the reward the env itself gave the 5 m play. A shot that landed in
     court has its landing depth, scaled like the goal, as the achieved goal."""
-    from rallysim.train.reference_returns import NO_LANDING
+    from experiments.reference_returns import NO_LANDING
 
     env, at3 = _fixed_aim_episode(3.0)
     _, at5 = _fixed_aim_episode(5.0)

@@ -15,6 +15,9 @@
   (``rallysim.rllib``) shares.
 - ``rallysim.train.warm_start``: the optional behaviour-cloning start of the low level.
 - ``rallysim.train.reproduce``: the whole pipeline and the Table VII report.
+- ``rallysim.train.results_doc``: the docs' generated tables, from the JSON that
+  ``reproduce`` and the research studies (the repository's ``experiments/``, not part of
+  the package) write; ``rallysim.train.study_tables`` renders the studies'.
 
 Submodules are imported on use so that ``import rallysim.train`` stays light.
 """

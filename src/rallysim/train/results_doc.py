@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from rallysim.train.reproduce import report_tables
+from rallysim.train.study_tables import RENDERERS
 
 BLOCK = re.compile(r"(<!-- BEGIN GENERATED: (?P<name>[\w.-]+) -->\n)(?P<body>.*?)"
                    r"(<!-- END GENERATED: (?P=name) -->)", re.S)
@@ -40,28 +41,15 @@ def render(results: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
-# what renders a JSON of each kind besides a reproduction's (no kind): docs/competitive.md's
-# studies, docs/rl-alone.md's
-_RENDERERS = {
-    "compete_study": "rallysim.train.compete_study:render",
-    "compete_summary": "rallysim.train.compete_study:render_summary",
-    "compete_flat": "rallysim.train.compete_flat_study:render",
-    "low_curves": "rallysim.train.low_curves_study:render",
-    "reference_returns": "rallysim.train.reference_returns:render",
-}
-
-
 def _renderer(kind: str | None) -> Callable[[dict[str, Any]], str]:
-    """What renders a JSON of this kind (``_RENDERERS``; no kind: a reproduction's)."""
+    """What renders a JSON of this kind (``study_tables.RENDERERS``: the studies' of
+    docs/competitive.md and docs/rl-alone.md; no kind: a reproduction's)."""
     if kind is None:
         return render
-    import importlib
-
-    if kind not in _RENDERERS:
+    if kind not in RENDERERS:
         raise ValueError(f"no renderer for JSON of kind {kind!r}; known: "
-                         f"{', '.join(_RENDERERS)} (or none: a reproduction's)")
-    module, name = _RENDERERS[kind].split(":")
-    return getattr(importlib.import_module(module), name)
+                         f"{', '.join(RENDERERS)} (or none: a reproduction's)")
+    return RENDERERS[kind]
 
 
 def blocks(doc: str) -> list[str]:

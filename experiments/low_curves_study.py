@@ -15,12 +15,12 @@ serves (v0's goals; ``rallysim.train.stages.low``): mean episode reward, median 
 and the correlation of landing depth with the goal over reachable goals. The x axis counts
 every decision training used: the teacher's cloned decisions first, then PPO's.
 
-    python -m rallysim.train.low_curves_study seed --method rl --seed 0 --out runs/low_curves
-    python -m rallysim.train.low_curves_study report --out runs/low_curves
+    python -m experiments.low_curves_study seed --method rl --seed 0 --out runs/low_curves
+    python -m experiments.low_curves_study report --out runs/low_curves
 
 ``report`` writes ``OUT/low_curves.json`` (docs/rl-alone.md renders it: a generated block,
-checked by a test) and the figure ``OUT/low_curves.png``: each seed's curve, and the mean over
-seeds with its 95 % bootstrap interval (seeds resampled).
+``rallysim.train.study_tables``, checked by a test) and the figure ``OUT/low_curves.png``: each
+seed's curve, and the mean over seeds with its 95 % bootstrap interval (seeds resampled).
 """
 
 from __future__ import annotations
@@ -33,16 +33,13 @@ from typing import Any
 
 import numpy as np
 
-from rallysim.eval.stats import interval_cell, over_seeds
+from rallysim.eval.stats import over_seeds
+from rallysim.train.study_tables import LOW_CURVE_METRICS as METRICS
+from rallysim.train.study_tables import render_low_curves as render
 
 KIND = "low_curves"
 METHODS = {"cloned": "default", "rl": "rl"}  # method -> the reproduce budget it trains as
 LABELS = {"cloned": "cloned, then PPO (default)", "rl": "RL alone (--budget rl)"}
-METRICS = (("mean_reward", "mean episode reward", 3),
-           ("median_error", "median landing error (m)", 2),
-           ("goal_correlation", "goal correlation (reachable goals)", 3))
-
-
 def run_seed(method: str, seed: int, out: Path) -> dict[str, Any]:
     """Train one seed's low level the way ``method`` does; return its curve."""
     from rallysim.train.reproduce import BUDGETS, train_seed_stage
@@ -80,30 +77,6 @@ def collect(out: Path, seeds: int) -> dict[str, Any]:
         methods[method] = {"budget": budget, "label": LABELS[method], "seeds": per_seed,
                            "pooled": pooled}
     return {"kind": KIND, "seeds": seeds, "methods": methods}
-
-
-def _num(value: float | None, digits: int) -> str:
-    return "—" if value is None else f"{value:.{digits}f}"
-
-
-def render(doc: dict[str, Any]) -> str:
-    """The pooled curves point by point, then every seed's last evaluation."""
-    head = " | ".join(title for _, title, _ in METRICS)
-    lines = [f"{doc['seeds']} training seeds per method; mean over seeds [95 % bootstrap "
-             "interval, seeds resampled].", "",
-             f"| method | decisions (M) | {head} |", "|---|---:|---|---|---|"]
-    for m in doc["methods"].values():
-        for p in m["pooled"]:
-            cells = " | ".join(interval_cell(p[key], d) for key, _, d in METRICS)
-            lines.append(f"| {m['label']} | {p['decisions'] / 1e6:.2f} | {cells} |")
-    lines += ["", "Each seed's last evaluation:", "",
-              f"| method | seed | {head} | hit rate |", "|---|---:|---:|---:|---:|---:|"]
-    for m in doc["methods"].values():
-        for s, points in m["seeds"].items():
-            last = points[-1]
-            cells = " | ".join(_num(last[key], d) for key, _, d in METRICS)
-            lines.append(f"| {m['label']} | {s} | {cells} | {last['hit_rate']:.3f} |")
-    return "\n".join(lines) + "\n"
 
 
 def figure(doc: dict[str, Any], path: Path) -> None:

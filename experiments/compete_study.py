@@ -17,11 +17,12 @@ against it held fixed (``rate_against``, each point a match), from the league's 
 not the ratings logged during training; plays the cross-play matrix of the ladder and every
 seed's snapshots and champion (within a seed every pair; across seeds, champion against
 champion); draws the figures and writes ``OUT/compete_study.json`` and
-``OUT/ladder_ratings.json``; ``docs`` renders that JSON's tables (docs/competitive.md holds them
-between generated-block markers, checked by a test like docs/results.md's).
+``OUT/ladder_ratings.json``; the library renders that JSON's tables
+(``rallysim.train.study_tables``: docs/competitive.md holds them between generated-block
+markers, checked by a test like docs/results.md's).
 
-    python -m rallysim.train.compete_study seed --seed 0 --out runs/compete_study
-    python -m rallysim.train.compete_study report --out runs/compete_study
+    python -m experiments.compete_study seed --seed 0 --out runs/compete_study
+    python -m experiments.compete_study report --out runs/compete_study
 
 ``seed --player humanlike`` trains HUMAN-LIKE players (``--br-budget 0``: no best response);
 ``summary`` pools such seeds without the cross-play (``compete_summary.json``).
@@ -41,8 +42,9 @@ from typing import Any
 
 import numpy as np
 
-from rallysim.eval.stats import interval_cell
 from rallysim.train.progress import say_stderr
+from rallysim.train.study_tables import render_compete_study as render
+from rallysim.train.study_tables import render_compete_summary as render_summary
 
 EVAL_SEED = 20_000  # evaluation games' seeds: apart from every training seed
 OPPONENTS = ("scripted", "hrl")
@@ -339,39 +341,6 @@ def league_ladder(run: Path) -> list[dict[str, Any]]:
     return ratings.table([n for n in ratings.players if not n.startswith("snapshot_")])
 
 
-def render_summary(result: dict[str, Any]) -> str:
-    """``summary``'s tables for the docs."""
-    st, opponents = result["settings"], result["opponents"]
-    br = (f"best response {st['br_budget']:,} turns" if st["br_budget"]
-          else "no best response")
-    lines = [
-        f"{len(result['seeds'])} training seeds of the `{result['player']}` player; league budget "
-        f"{st['budget']:,} turns, {br}; {st['games']} evaluation games per pair; games "
-        f"stopped after {st['max_decisions']:,} decisions. Point-win rate of each champion "
-        "(mean rally in hits per point):", "",
-        "| seed | " + " | ".join(f"champion vs {n}" for n in opponents)
-        + " | snapshot ratings rise | wall (min) |",
-        "|---|" + "---|" * (len(opponents) + 2)]
-    for s in result["seeds"]:
-        cells = [f"{ci_cell(s[f'vs_{n}'])} ({_rate(s[f'rally_vs_{n}']['value'], 1)})"
-                 for n in opponents]
-        lines.append(f"| {s['seed']} | " + " | ".join(cells)
-                     + f" | {'yes' if s['ratings_monotonic'] else 'no'} | "
-                     f"{s['wall_s']['total'] / 60:.1f} |")
-    lines.append("| pooled | " + " | ".join(ci_cell(result["pooled"][n]) for n in opponents)
-                 + " | | |")
-    ladder = ", ".join(f"`{r['name']}` {r['ordinal']:.2f}" for r in result["ladder"])
-    lines += ["", f"Snapshot ratings (OpenSkill ordinal against the league's calibrated ladder, "
-              f"each point a match, as the league logged them; the ladder: {ladder}), oldest "
-              "first:", ""]
-    for s in result["seeds"]:
-        values = [r["rating"] for r in s["ratings"] if r["rating"] is not None]
-        lines.append(f"- seed {s['seed']}: {', '.join(f'{v:.2f}' for v in values)}")
-    lines += ["", "Checks: " + ", ".join(f"`{k}` **{'yes' if v else 'no'}**"
-                                         for k, v in result["checks"].items()) + ".", ""]
-    return "\n".join(lines)
-
-
 def falls(snaps: list[dict[str, Any]]) -> list[dict[str, float]]:
     """Each time a snapshot's ordinal is below its predecessor's: by how much, and in sigmas
     of the difference (``sqrt(sigma_a^2 + sigma_b^2)``; under 2: not a clear fall)."""
@@ -471,88 +440,6 @@ def _exploitability_figure(seeds: list[dict[str, Any]], pooled: dict[str, Any],
 
 
 # -- docs ---------------------------------------------------------------------------------------
-def ci_cell(e: dict[str, float] | None) -> str:
-    """A rate and its 95 % interval as a table cell (``—`` where undefined)."""
-    return interval_cell(None if e is None or e.get("value") is None else e, 3)
-
-
-def _rate(value: float | None, digits: int = 3) -> str:
-    return "—" if value is None else f"{value:.{digits}f}"
-
-
-def render(result: dict[str, Any]) -> str:
-    """The study's tables for docs/competitive.md."""
-    st, opponents = result["settings"], result["opponents"]
-    cp, lad = result["crossplay"], result["ladder"]
-    rungs = [r for r in cp["players"] if r in lad["players"]]
-    lines = [
-        f"{len(result['seeds'])} training seeds; league budget {st['budget']:,} turns, best "
-        f"response {st['br_budget']:,} turns; {st['games']} evaluation games per pair; games "
-        f"stopped after {st['max_decisions']:,} decisions.",
-        "",
-        "| seed | " + " | ".join(f"champion vs {n}" for n in opponents)
-        + " | best response vs champion | snapshot ratings rise |",
-        "|---|" + "---|" * (len(opponents) + 2),
-    ]
-    for s in result["seeds"]:
-        lines.append(f"| {s['seed']} | " + " | ".join(ci_cell(s[f"vs_{n}"]) for n in opponents)
-                     + f" | {ci_cell(s['best_response'])} | "
-                     f"{'yes' if s['ratings_monotonic'] else 'no'} |")
-    p = result["pooled"]
-    lines.append("| pooled | " + " | ".join(ci_cell(p[f"champion_vs_{n}"]) for n in opponents)
-                 + f" | {ci_cell(p['best_response'])} | |")
-    lines += ["", f"The reference ladder, calibrated by a round-robin of {lad['games']} games "
-              f"per pair (seed {lad['seed']}, each point a match), best first:", "",
-              "| rung | mu | sigma | ordinal |", "|---|---|---|---|"]
-    lines += [f"| {r['name']} | {r['mu']:.2f} | {r['sigma']:.2f} | {r['ordinal']:.2f} |"
-              for r in lad["table"]]
-    lines += ["", "Snapshot ratings (OpenSkill ordinal against the calibrated ladder held fixed, "
-              f"{lad['games']} games against each rung, each point a match), oldest first, "
-              "then the champion:", ""]
-    for s in result["seeds"]:
-        values = [r["rating"] for r in s["ratings"]]
-        down = s["ratings_falls"]
-        fell = (f"falls {len(down)} time{'s' if len(down) > 1 else ''}, by at most "
-                f"{max(f['by'] for f in down):.2f} = "
-                f"{max(f['sigmas'] for f in down):.2f} sigma of the difference" if down
-                else "never falls")
-        lines.append(f"- seed {s['seed']}: {', '.join(f'{v:.2f}' for v in values)}; champion "
-                     f"{s['champion_rating']['rating']:.2f} ({fell})")
-    rising = sum(s["ratings_monotonic"] for s in result["seeds"])
-    clear = sum(not s["ratings_no_clear_fall"] for s in result["seeds"])
-    lines += ["", f"Rising at every snapshot on {rising} of {len(result['seeds'])} seeds; a fall "
-              f"of 2 sigma or more on {clear}.", "",
-              "As logged during training (the previous rating: each game a match, the ladder at "
-              "OpenSkill's defaults, 8 games per rung):", ""]
-    for s in result["seeds"]:
-        values = [r["rating"] for r in s["ratings_training"] if r["rating"] is not None]
-        lines.append(f"- seed {s['seed']}: {', '.join(f'{v:.2f}' for v in values)}")
-    lines += ["", "Each snapshot's and champion's point-win rate against each rung (the games "
-              "of its rating):", "",
-              "| player | turns | ordinal | " + " | ".join(rungs) + " |",
-              "|---|---|---|" + "---|" * len(rungs)]
-    for s in result["seeds"]:
-        for m in [*s["snapshots"], {**s["champion_rating"], "champion": True}]:
-            who = f"seed {s['seed']} {'champion' if m.get('champion') else 'snapshot'}"
-            lines.append(f"| {who} | {m['turns']:,} | {m['rating']:.2f} | " + " | ".join(
-                _rate(m["versus"][r]["point_win_rate"]) for r in rungs) + " |")
-    champions = [s["champion"] for s in result["seeds"]]
-    index = [cp["players"].index(n) for n in [*rungs, *champions]]
-    names = [*rungs, *(f"champion s{s['seed']}" for s in result["seeds"])]
-    lines += ["", f"Cross-play of the ladder and the champions (point-win rate of row against "
-              f"column, {cp['games']} games per pair):", "", "| | " + " | ".join(names) + " |",
-              "|---|" + "---|" * len(names)]
-    for k, i in enumerate(index):
-        lines.append(f"| {names[k]} | "
-                     + " | ".join(ci_cell(cp["point_win_rate"][i][j]) for j in index) + " |")
-    lines += ["", f"The whole matrix ({len(cp['players'])} players: the ladder and every seed's "
-              f"snapshots and champion; {len(cp['pairs'])} pairs played, players of different "
-              "seeds only champion against champion) is `crossplay` in the JSON.", "",
-              "Checks: " + ", ".join(f"`{k}` **{'yes' if v else 'no'}**"
-                                     for k, v in result["checks"].items()) + ".", ""]
-    return "\n".join(lines)
-
-
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="step", required=True)

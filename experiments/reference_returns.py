@@ -27,7 +27,10 @@ Every run's deterministic policy then plays ``episodes`` fresh episodes
 95 % bootstrap intervals (seeds, then episodes, resampled); the task metrics are means over
 seeds with intervals over seeds.
 
-    python benchmarks/reference_returns.py --json docs/data/reference_returns.json
+    python -m experiments.reference_returns --json docs/data/reference_returns.json
+
+(docs/rl-alone.md renders that JSON: a generated block, ``rallysim.train.study_tables``,
+checked by a test.)
 """
 
 from __future__ import annotations
@@ -48,6 +51,7 @@ import numpy as np
 from stable_baselines3.common.vec_env import VecEnvWrapper
 
 from rallysim.eval import stats
+from rallysim.train.study_tables import render_reference_returns as render
 
 KIND = "reference_returns"
 EVAL_SEED = 2_000_000  # evaluation episodes: seeds apart from training's (seed + i)
@@ -286,31 +290,6 @@ def pool(runs: list[dict[str, Any]]) -> list[dict[str, Any]]:
                 "scores": {k: stats.over_seeds([r["scores"][k] for r in mine]) for k in keys},
                 "train_wall_s": [r["train_wall_s"] for r in mine]})
     return rows
-
-
-SCORE_NAMES = {"hit_rate": ("hit rate", 3), "median_landing_error": ("median landing error (m)", 2),
-               "goal_correlation": ("goal correlation", 2),
-               "mean_angle_error": ("mean angle error (deg)", 1),
-               "mean_abs_speed_error": ("mean abs. speed error", 2)}
-
-
-def render(doc: dict[str, Any]) -> str:
-    """The reference table: one row per task and algorithm."""
-    lines = [f"{doc['episodes']} evaluation episodes per seed (deterministic policy); budgets "
-             "in SB3 steps of the task's unit; mean [95 % bootstrap interval].", "",
-             "| task | algorithm | budget | mean return | per seed | mean episode length "
-             "| task measures | training wall (s, per seed) |",
-             "|---|---|---:|---|---|---|---|---|"]
-    for r in doc["rows"]:
-        scores = "; ".join(f"{SCORE_NAMES[k][0]} {stats.interval_cell(v, SCORE_NAMES[k][1])}"
-                           for k, v in r["scores"].items()) or "—"
-        per_seed = " / ".join(f"{x:.2f}" for x in r["per_seed_return"])
-        walls = " / ".join(f"{w:.0f}" for w in r["train_wall_s"])
-        ret = stats.interval_cell(r["mean_return"], 2)
-        length = stats.interval_cell(r["mean_length"], 1)
-        lines.append(f"| {r['task']} | {r['algo']} | {r['steps']:,} {r['unit']} | {ret} | "
-                     f"{per_seed} | {length} | {scores} | {walls} |")
-    return "\n".join(lines) + "\n"
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -8,11 +8,11 @@ its league, the actor started from the cooperative ``simple_mono``) makes the fl
 scripted controller, the cooperative HRL and Monolithic agents and the shipped hierarchical
 champion ``simple_compete``. Its snapshots' ratings are those the league logged against the
 calibrated ladder. ``report`` pools the seeds (seeds, then games: ``compete_study.pooled_rate``)
-into ``OUT/compete_flat.json``, which docs/competitive.md renders (a generated block, checked by
-a test).
+into ``OUT/compete_flat.json``, which docs/competitive.md renders (a generated block,
+``rallysim.train.study_tables``, checked by a test).
 
-    python -m rallysim.train.compete_flat_study seed --seed 0 --out runs/compete_flat
-    python -m rallysim.train.compete_flat_study report --out runs/compete_flat
+    python -m experiments.compete_flat_study seed --seed 0 --out runs/compete_flat
+    python -m experiments.compete_flat_study report --out runs/compete_flat
 """
 
 from __future__ import annotations
@@ -24,13 +24,8 @@ import time
 from pathlib import Path
 from typing import Any
 
-from rallysim.train.compete_study import (
-    EVAL_SEED,
-    ci_cell,
-    league_history,
-    play_summary,
-    pooled_rate,
-)
+from experiments.compete_study import EVAL_SEED, league_history, play_summary, pooled_rate
+from rallysim.train.study_tables import render_compete_flat as render
 
 OPPONENTS = ("scripted", "hrl", "mono", "simple_compete")
 KIND = "compete_flat"
@@ -86,33 +81,6 @@ def report(out: Path) -> dict[str, Any]:
     }
     (out / f"{KIND}.json").write_text(json.dumps(result, indent=1))
     return result
-
-
-def render(result: dict[str, Any]) -> str:
-    """The baseline's table for docs/competitive.md."""
-    st, opponents = result["settings"], result["opponents"]
-    lines = [
-        f"{len(result['seeds'])} training seeds; {st['budget']:,} decisions each, the actor "
-        + ("started from random weights; " if st["init_policy"] == "none" else
-           f"started from `{st['init_policy']}` (a cooperative Monolithic policy); ")
-        + f"{st['games']} evaluation games per pair; games stopped after "
-        f"{st['max_decisions']:,} decisions. Point-win rate of the flat champion against:",
-        "",
-        "| seed | " + " | ".join(opponents) + " | wall (min) |",
-        "|---|" + "---|" * (len(opponents) + 1),
-    ]
-    for s in result["seeds"]:
-        lines.append(f"| {s['seed']} | " + " | ".join(ci_cell(s[f"vs_{n}"]) for n in opponents)
-                     + f" | {s['wall_s']['total'] / 60:.1f} |")
-    lines.append("| pooled | " + " | ".join(ci_cell(result["pooled"][n]) for n in opponents)
-                 + " | |")
-    lines += ["", "Snapshot ratings (OpenSkill ordinal against the calibrated ladder, as the "
-              "league logged them), oldest first:", ""]
-    for s in result["seeds"]:
-        values = [r["rating"] for r in s["ratings"] if r["rating"] is not None]
-        lines.append(f"- seed {s['seed']}: {', '.join(f'{v:.2f}' for v in values)}")
-    lines.append("")
-    return "\n".join(lines)
 
 
 def main(argv: list[str] | None = None) -> int:

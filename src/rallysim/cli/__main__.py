@@ -1,0 +1,7 @@
+"""``python -m rallysim.cli``: the ``rallysim`` command."""
+
+import sys
+
+from rallysim.cli import main
+
+sys.exit(main())
