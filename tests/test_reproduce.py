@@ -42,6 +42,22 @@ def test_reproduce_writes_the_report_json_and_plots(smoke_run):
     # the Monolithic baseline got the hierarchy's budget in player-decisions
     assert train["mono"]["steps"] >= train["low"]["steps"] + 2 * train["high"][
         "decisions_simulated"]
+    # the high level started from its goal sweep, whose decisions the budget counted
+    sweep = train["high"]["start"]
+    assert len(sweep["mean_rally"]) == 9 and sweep["decisions"] > 0
+    assert train["high"]["decisions_simulated"] > sweep["decisions"]
+    # how much each high level still climbed in its last third, and the check on it
+    from rallysim.train.reproduce import CLIMB_TOLERANCE, last_climb
+
+    climbs = results["high_last_climb"]
+    assert set(climbs) == {"0", "1"}
+    assert results["checks"]["no_high_level_still_climbing"] == all(
+        c is None or c <= CLIMB_TOLERANCE * 50 for c in climbs.values())
+    for seed, climb in climbs.items():  # None: the smoke high level's single evaluation
+        assert climb == last_climb(json.loads((out / "runs" / f"high_seed{seed}" /
+                                               "curve.json").read_text()))
+    assert last_climb({"evals": [{"mean_rally": 30.0}, {"mean_rally": 38.5}]}) == 8.5
+    assert last_climb({"evals": [{"mean_rally": 30.0}]}) is None
     again = run_reproduce(BUDGETS["smoke"], out, workers=1)  # everything trained: reused
     for seed, stages in results["training"].items():
         for stage, numbers in stages.items():

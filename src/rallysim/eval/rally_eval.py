@@ -53,21 +53,39 @@ def rally_lengths_turns(high_level: HighLevel, low_level: LowLevel | str, n_rall
                         player: str | PlayerSpec = "simple") -> np.ndarray:
     """Lengths of ``n_rallies`` rallies of ``player`` (a kind's name or spec; HUMAN-LIKE
     goals are (M, 3)) played turn by turn (cooperative rules)."""
+    return play_turns(high_level, low_level, n_rallies, seed, config, max_turns, player)[0]
+
+
+def play_turns(high_level: HighLevel | np.ndarray, low_level: LowLevel | str, n_rallies: int,
+               seed: int, config: RallyConfig | None = None, max_turns: int | None = None,
+               player: str | PlayerSpec = "simple") -> tuple[np.ndarray, int, int]:
+    """``rally_lengths_turns`` with what the rallies cost: (lengths, low-level decisions
+    simulated, turns played). ``high_level`` may also be an array of goals, one per rally
+    (``n_rallies`` rows), that each rally's players keep for the whole rally."""
     turns = TurnTask(n_rallies, low_level, config, seed=seed, player=player)
     turns.reset(np.arange(n_rallies))
+    fixed = None
+    if isinstance(high_level, np.ndarray):
+        fixed = high_level.reshape(n_rallies, *turns.goals.shape[2:])
     # a turn ends with a hit or the rally: a rally has at most max_hits + 1 turns
     if max_turns is None:
         max_turns = turns.rally.config.max_hits + 2
     lengths = np.full(n_rallies, -1, np.int64)
+    decisions = played = 0
     for _ in range(max_turns):
         playing = np.flatnonzero(lengths < 0)
         if not len(playing):
-            return lengths
+            return lengths, decisions, played
         goals = np.empty((n_rallies, *turns.goals.shape[2:]))
         goals[:] = turns.rally.default_goal
-        goals[playing] = np.asarray(high_level(turns.observe()[playing])).reshape(
-            goals[playing].shape)
+        if fixed is not None:
+            goals[playing] = fixed[playing]
+        else:
+            goals[playing] = np.asarray(high_level(turns.observe()[playing])).reshape(
+                goals[playing].shape)
         out = turns.step(goals, playing)
+        decisions += int(out["decisions"][playing].sum())
+        played += len(playing)
         _refuse_stalls(out["truncated"][playing], out["rally_length"][playing],
                        turns.rally.config)
         done = playing[(out["terminated"] | out["truncated"])[playing]]

@@ -23,6 +23,7 @@ from __future__ import annotations
 import logging
 import math
 import os
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -159,6 +160,12 @@ def train_stage_rllib(config: TrainConfig, out_dir: str | Path, address: str | N
     if config.player not in RLLIB_PLAYERS[config.stage]:
         raise ValueError(f"the RLlib backend does not train the {PLAYERS[config.player].label} "
                          f"player's {config.stage} stage; train it with --backend sb3")
+    if config.goal_sweep:
+        # the sweep sets the SB3 actor's output bias; RLlib's module starts at the centre
+        if progress:
+            say_stderr(f"[{config.stage} rllib seed {config.seed}] the RLlib backend starts "
+                       "the high level at the centre of the goal range (goal_sweep 0)")
+        config = replace(config, goal_sweep=0)
     require_ray()
     import ray
     import torch

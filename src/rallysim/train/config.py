@@ -79,6 +79,11 @@ class TrainConfig:
     keep_bodies: bool = False
     # low stage, SIMPLE: the goals drawn ("uniform": SimpleReturn-v0's; "reachable": -v1's)
     goals: str = "uniform"
+    # high stage: rallies per goal of the start's goal sweep (0: none, PPO starts at the
+    # centre of the goal range), over goal_sweep_points goals per goal axis
+    # (rallysim.train.goal_sweep)
+    goal_sweep: int = 0
+    goal_sweep_points: int = 9
     ppo: PPOSettings = field(default_factory=PPOSettings)
     warm_start: WarmStartSettings = field(default_factory=WarmStartSettings)
     eval: EvalSettings = field(default_factory=EvalSettings)
@@ -106,6 +111,9 @@ class TrainConfig:
         if self.warm_start.enabled and not stage.warm_starts:
             starts = " and ".join(s.name for s in stages.STAGES.values() if s.warm_starts)
             raise ValueError(f"warm_start applies to the {starts} stage only")
+        if self.goal_sweep and not stage.sweeps_goals:
+            raise ValueError(f"goal_sweep applies to the high stage only, got "
+                             f"{self.goal_sweep} for the {stage.name} stage")
         if self.ppo.n_envs % stage.slots_per_env:
             raise ValueError(f"the {stage.name} stage needs ppo.n_envs divisible by "
                              f"{stage.slots_per_env} (one slot per rally-player pair), got "
@@ -161,7 +169,8 @@ _CHOICES: dict[str, tuple[str, ...]] = {
     "incoming": INCOMING, "goals": GOALS,
 }
 _BOUNDS: dict[str, Bound] = {"seed": SEED, "torch_threads": at_least(1),
-                             "checkpoint_every": at_least(1)}
+                             "checkpoint_every": at_least(1), "goal_sweep": at_least(0),
+                             "goal_sweep_points": at_least(2)}
 _TOP = tuple(f.name for f in fields(TrainConfig) if f.name not in SECTIONS)
 
 # every setting's dotted name -> its kind (values.kind_of), generated from the dataclasses

@@ -105,7 +105,8 @@ def result_names(cap: int) -> dict[str, str]:
 SMOKE_SIZES: dict[str, Any] = {"ppo.n_envs": 32, "ppo.n_steps": 16, "ppo.batch_size": 256,
                                "eval.episodes": 16, "checkpoint_every": 1024}
 SMOKE_STAGE_SIZES: dict[str, dict[str, Any]] = {"high": {"ppo.n_steps": 8,
-                                                         "ppo.batch_size": 64}}
+                                                         "ppo.batch_size": 64,
+                                                         "goal_sweep": 2}}
 
 
 def _frozen_low_level(seed: int, out: Path, curves: dict[str, Any]) -> dict[str, Any]:
@@ -373,6 +374,19 @@ def _run_all(budget: Budget, out: Path, workers: int, cap: int
 LOSS_KEYS = ("serve_return", "first_return_miss", "early_loss", "later_miss_rate")
 
 
+CLIMB_TOLERANCE = 0.1  # of the training cap: what a high level's last third may add
+
+
+def last_climb(curve: dict[str, Any]) -> float | None:
+    """How much the high level's mean rally rose between its last two training evaluations
+    (at two thirds of the budget and at its end, in ``reproduce``); None with fewer than two.
+    Training evaluations are capped at the paper's 50 hits."""
+    evals = curve.get("evals", [])
+    if len(evals) < 2:
+        return None
+    return float(evals[-1]["mean_rally"] - evals[-2]["mean_rally"])
+
+
 def summarise(budget: Budget, curves: dict[int, dict[str, Any]], per_seed: dict[int, Any],
               train_wall: float, total_wall: float, cap: int = PAPER_CAP) -> dict[str, Any]:
     """Pooled and per-seed statistics of every method, the pairwise interval comparisons and
@@ -403,8 +417,13 @@ def summarise(budget: Budget, curves: dict[int, dict[str, Any]], per_seed: dict[
     order_ok = above("HRL", "Random High-level") and above("Random High-level", "Monolithic")
     low = [per_seed[s]["low_level"] for s in seeds]
     hrl_seeds = [by_seed["HRL"][str(s)] for s in seeds]
+    climbs = {str(s): last_climb(curves[s]["high"]) for s in seeds}
     checks = {
         "every_seed_hrl_mean_at_least_40": all(v["mean"]["value"] >= 40 for v in hrl_seeds),
+        # a high level whose last third of the budget still added more than a tenth of the cap
+        # was stopped while climbing: its table row is its budget's, not its method's
+        "no_high_level_still_climbing": all(c is None or c <= CLIMB_TOLERANCE * PAPER_CAP
+                                            for c in climbs.values()),
         "hrl_above_monolithic": above("HRL", "Monolithic"),
         "hrl_above_random": above("HRL", "Random High-level"),
         # lower early loss: HRL's whole interval below Monolithic's
@@ -431,8 +450,10 @@ def summarise(budget: Budget, curves: dict[int, dict[str, Any]], per_seed: dict[
                       "hit_rate": float(np.mean([r["hit_rate"] for r in low])),
                       "median_error": float(np.mean([r["median_error"] for r in low]))},
         "per_seed": {str(s): per_seed[s] for s in seeds},
+        "high_last_climb": climbs,
         "training": {str(s): {stage: {k: c.get(k) for k in (
-            "steps", "train_wall_s", "steps_per_s", "decisions_simulated", "final", "warm_start")}
+            "steps", "train_wall_s", "steps_per_s", "decisions_simulated", "final", "warm_start",
+            "start")}
             for stage, c in curves[s].items()} for s in seeds},
     }
 

@@ -179,6 +179,10 @@ def _train_stage(config: TrainConfig, out: Path, resume: bool, progress: bool,
             fitted = beat.update
         log.curve["warm_start"] = warm_start(model, config, progress and beat is None, out,
                                              warn, note, fitted)
+    if found is None and (start := stages.of(config).start(config, model)) is not None:
+        log.curve["start"] = start
+        if note is not None:
+            note(f"[{config.stage} seed {config.seed}] start: {_start_line(config, start)}")
     log.write_config()
     extra = stages.of(config).begin(config, model, out,
                                     None if found is None else found[1].get("stage_state"))
@@ -198,11 +202,23 @@ def _train_stage(config: TrainConfig, out: Path, resume: bool, progress: bool,
         final = monitor.evaluate(model)
     monitor.save(model)
     steps = int(model.num_timesteps)
-    curve = log.finish(final, steps, stages.of(config).decisions_simulated(model.get_env(),
-                                                                           steps))
+    simulated = stages.of(config).decisions_simulated(model.get_env(), steps)
+    curve = log.finish(final, steps,
+                       simulated + int(log.curve.get("start", {}).get("decisions", 0)))
     export_policy(model, log, out / "policy", final)
     log.write_curve()
     return curve
+
+
+def _start_line(config: TrainConfig, start: dict[str, Any]) -> str:
+    """The goal sweep in one progress line."""
+    from rallysim.players import HUMANLIKE, SIMPLE
+
+    player = SIMPLE if config.player == "simple" else HUMANLIKE
+    goal = np.round(player.goal.from_action(np.asarray(start["best_action"])), 2).tolist()
+    return (f"goal sweep over {len(start['actions'])} goals x {start['rallies_per_goal']} "
+            f"rallies ({start['decisions']:,} decisions): best goal {goal} {player.goal.unit}, "
+            f"mean rally {start['best_mean_rally']:.2f}")
 
 
 def warm_start(model: Any, config: TrainConfig, progress: bool, out: Path | None = None,

@@ -34,6 +34,7 @@ class Stage:
     # training slots per simulated env: 2 where each rally-player pair is a slot
     slots_per_env: ClassVar[int] = 1
     warm_starts: ClassVar[bool] = False  # whether a warm start (behaviour cloning) applies
+    sweeps_goals: ClassVar[bool] = False  # whether a goal sweep (``goal_sweep``) applies
 
     def make_env(self, config: TrainConfig) -> NativeVecEnv:
         """The training env behind SB3's ``VecEnv`` API (same-step autoreset)."""
@@ -67,6 +68,12 @@ class Stage:
     def clone_task(self, config: TrainConfig) -> CloneTask:
         """Where a warm start's teacher and clone play (``warm_starts``)."""
         raise ValueError(f"the {self.name} stage has no warm start")
+
+    def start(self, config: TrainConfig, model: Any) -> dict[str, Any] | None:
+        """Before a new run's PPO (not on resume): set ``model``'s starting point and return
+        what that cost and found, for the learning curve (the high stage's goal sweep);
+        None where nothing is done. ``decisions`` in it count as decisions simulated."""
+        return None
 
     def begin(self, config: TrainConfig, model: Any, out: Path,
               state: dict[str, Any] | None) -> Any:

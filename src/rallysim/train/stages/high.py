@@ -94,12 +94,28 @@ class HighStage(Stage):
     title: ClassVar[str] = "high"
     players: ClassVar[tuple[str, ...]] = tuple(PLAYERS)
     multi_agent: ClassVar[bool] = True
+    sweeps_goals: ClassVar[bool] = True
 
     def make_env(self, config: TrainConfig) -> NativeVecEnv:
         return PLAYERS[config.player].make_env(config)
 
     def env_options(self, config: TrainConfig) -> dict[str, Any]:
         return {"shuttle": config.shuttle, "low_policy": config.low_policy}
+
+    def start(self, config: TrainConfig, model: Any) -> dict[str, Any] | None:
+        """The goal sweep (``rallysim.train.goal_sweep``): PPO's Gaussian starts at the fixed
+        goal the frozen low level rallies longest on, one grid step wide."""
+        if not config.goal_sweep:
+            return None
+        from rallysim.core.tasks.rally import RallyConfig
+        from rallysim.train.goal_sweep import grid_step, start_at, sweep_goals
+
+        player = SIMPLE if config.player == "simple" else HUMANLIKE
+        low = resolve(config.low_policy, "rally_low", player)
+        sweep = sweep_goals(player, low, config.goal_sweep_points, config.goal_sweep,
+                            config.seed, RallyConfig(shuttle=config.shuttle))
+        start_at(model, np.asarray(sweep["best_action"]), grid_step(config.goal_sweep_points))
+        return sweep
 
     def evaluate(self, config: TrainConfig, act: Policy, rallies: int | None = None
                  ) -> dict[str, Any]:
