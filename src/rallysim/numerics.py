@@ -13,10 +13,9 @@ environment first.
 
 from __future__ import annotations
 
-import contextlib
 import os
 import platform
-from collections.abc import Iterator, Mapping
+from collections.abc import Mapping
 from typing import Any
 
 
@@ -147,53 +146,3 @@ def describe() -> dict[str, Any]:
         out["torch_cpu_capability"] = torch.backends.cpu.get_cpu_capability()
     return out
 
-
-# OpenBLAS's (get, set) functions of its thread count: plain builds, builds with 64-bit integers,
-# and the scipy-openblas that NumPy's wheels bundle
-_OPENBLAS_THREADS = tuple((f"{prefix}openblas_get_num_threads{suffix}",
-                           f"{prefix}openblas_set_num_threads{suffix}")
-                          for prefix in ("", "scipy_") for suffix in ("", "64_"))
-
-
-def _openblas_thread_controls() -> list[tuple[Any, Any]]:
-    """The (get, set) thread-count functions of each OpenBLAS loaded in this process, found in
-    /proc/self/maps (Linux); none elsewhere."""
-    import ctypes
-
-    try:
-        with open("/proc/self/maps", encoding="utf-8") as f:
-            paths = sorted({fields[5] for line in f if "openblas" in line.lower()
-                            and len(fields := line.split(maxsplit=5)) == 6})
-    except OSError:
-        return []
-    controls = []
-    for path in paths:
-        try:
-            lib = ctypes.CDLL(path.strip())  # already loaded: the same library, not a copy
-        except OSError:
-            continue
-        for get, set_ in _OPENBLAS_THREADS:
-            if hasattr(lib, get) and hasattr(lib, set_):
-                controls.append((getattr(lib, get), getattr(lib, set_)))
-                break
-    return controls
-
-
-@contextlib.contextmanager
-def blas_threads(n: int) -> Iterator[None]:
-    """Run the block with each loaded OpenBLAS (NumPy's) on at most ``n`` threads, then give
-    each its count back. For the MLP policies' small products (64 units, batches of hundreds)
-    OpenBLAS's threads cost far more than they give: 15 ms a call against 0.45 ms on one
-    thread, on a busy 2-core machine. The thread count moves some bits (OpenBLAS starts one
-    thread per core and splits each product between them; 1 and 2 threads round some actions
-    differently), so one thread also gives the same numbers whatever the core count.
-    Where no OpenBLAS is found (another BLAS, another system), a no-op."""
-    controls = _openblas_thread_controls()
-    before = [get() for get, _ in controls]
-    try:
-        for (_, set_), count in zip(controls, before, strict=True):
-            set_(min(n, count))
-        yield
-    finally:
-        for (_, set_), count in zip(controls, before, strict=True):
-            set_(count)

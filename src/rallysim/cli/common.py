@@ -10,7 +10,6 @@ from collections.abc import Callable
 from typing import NoReturn
 
 from rallysim.core.shuttle import SHUTTLE_MODELS
-from rallysim.numerics import blas_threads
 
 # TrainConfig's bound (train/config.py SEED_MAX; not imported: it needs the train extra's yaml)
 SEED_MAX = 2**31 - 1
@@ -62,13 +61,16 @@ def add_command(sub: argparse._SubParsersAction, name: str, help_text: str,
 
 def numpy_policies(run: Callable[[argparse.Namespace], int]
                    ) -> Callable[[argparse.Namespace], int]:
-    """For a command that runs the policies in NumPy: OpenBLAS on one thread while it runs
-    (``rallysim.numerics.blas_threads``: a fraction of the time on small products, and the
-    same numbers on any number of cores)."""
+    """For a command that runs the policies in NumPy: the BLAS on one thread while it runs.
+    The policies' products are small (64 units, batches of hundreds), where BLAS threads cost
+    far more than they give (docs/performance.md); one thread also gives the same numbers
+    whatever the core count, since splitting a product between threads moves some bits."""
 
     @functools.wraps(run)
     def one_thread(args: argparse.Namespace) -> int:
-        with blas_threads(1):
+        from threadpoolctl import threadpool_limits
+
+        with threadpool_limits(limits=1, user_api="blas"):
             return run(args)
 
     return one_thread
