@@ -42,10 +42,6 @@ def test_reproduce_writes_the_report_json_and_plots(smoke_run):
     # the Monolithic baseline got the hierarchy's budget in player-decisions
     assert train["mono"]["steps"] >= train["low"]["steps"] + 2 * train["high"][
         "decisions_simulated"]
-    # the high level started from its goal sweep, whose decisions the budget counted
-    sweep = train["high"]["start"]
-    assert len(sweep["mean_rally"]) == 9 and sweep["decisions"] > 0
-    assert train["high"]["decisions_simulated"] > sweep["decisions"]
     # how much each high level still climbed in its last third, and the check on it
     from rallysim.train.reproduce import CLIMB_TOLERANCE, last_climb
 

@@ -105,8 +105,7 @@ def result_names(cap: int) -> dict[str, str]:
 SMOKE_SIZES: dict[str, Any] = {"ppo.n_envs": 32, "ppo.n_steps": 16, "ppo.batch_size": 256,
                                "eval.episodes": 16, "checkpoint_every": 1024}
 SMOKE_STAGE_SIZES: dict[str, dict[str, Any]] = {"high": {"ppo.n_steps": 8,
-                                                         "ppo.batch_size": 64,
-                                                         "goal_sweep": 2}}
+                                                         "ppo.batch_size": 64}}
 
 
 def _frozen_low_level(seed: int, out: Path, curves: dict[str, Any]) -> dict[str, Any]:
