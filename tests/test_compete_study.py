@@ -19,7 +19,8 @@ from rallysim.train.results_doc import regenerate
 ROOT = Path(__file__).resolve().parents[1]
 TINY = {"ppo.n_envs": 8, "ppo.n_steps": 64, "ppo.batch_size": 256, "ppo.n_epochs": 1,
         "checkpoint_every": 512, "eval.every": 0, "eval.episodes": 1,
-        "league.snapshot_every": 512, "league.rating_games": 1, "league.ladder": "scripted"}
+        "league.snapshot_every": 512, "league.rating_games": 1, "league.ladder": "scripted",
+        "league.rating_decisions": 1500}  # (the default 5,000 took most of the time)
 
 
 def test_pooled_rate_is_points_won_over_points_played():
