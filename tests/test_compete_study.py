@@ -33,6 +33,7 @@ def test_pooled_rate_is_points_won_over_points_played():
         "value": 0.5, "low": 0.5, "high": 0.5}
 
 
+@pytest.mark.slow  # trains
 def test_a_tiny_study(tmp_path, monkeypatch):
     monkeypatch.setattr(study, "OPPONENTS", ("scripted",))
     path = study.run_seed(0, tmp_path, budget=512, br_budget=512, games=2,
@@ -112,6 +113,7 @@ def test_a_tiny_study(tmp_path, monkeypatch):
     assert {**again["crossplay"], "wall_s": 0} == {**cp, "wall_s": 0}
 
 
+@pytest.mark.slow  # trains
 def test_a_seed_without_best_response_is_summarised_not_reported(tmp_path, monkeypatch):
     monkeypatch.setattr(study, "OPPONENTS", ("scripted",))
     doc = json.loads(study.run_seed(0, tmp_path, budget=512, br_budget=0, games=1,

@@ -42,6 +42,7 @@ def league_run(tmp_path_factory):
     return out, _run(out)
 
 
+@pytest.mark.slow  # trains
 def test_snapshots_follow_the_schedule(league_run):
     out, curve = league_run
     names = sorted(p.stem for p in (out / "pool").glob("*.json"))
@@ -55,6 +56,7 @@ def test_snapshots_follow_the_schedule(league_run):
     assert final["vs_scripted"]["points"] > 0
 
 
+@pytest.mark.slow  # trains
 def test_the_league_is_saved_with_each_checkpoint(league_run):
     out, _ = league_run
     latest = ckpt.latest_checkpoint(out)
@@ -70,6 +72,7 @@ def test_the_league_is_saved_with_each_checkpoint(league_run):
     assert players["scripted"] == {"mu": 25.0, "sigma": 25.0 / 3.0}
 
 
+@pytest.mark.slow  # trains
 def test_the_league_rates_with_the_shared_function(league_run, monkeypatch):
     # League.rate is eval.ratings.rate_against: the same games rated the same way give the
     # league's logged ratings float for float
@@ -103,6 +106,7 @@ def test_the_league_rates_with_the_shared_function(league_run, monkeypatch):
     assert league.rate("new")["point_win_rate"] == {} and calls == ["new"]
 
 
+@pytest.mark.slow  # trains
 def test_same_seed_same_weights(league_run, tmp_path):
     out, _ = league_run
     again = tmp_path / "again"
@@ -112,6 +116,7 @@ def test_same_seed_same_weights(league_run, tmp_path):
         again / "pool" / "snapshot_000000000512.safetensors").read_bytes()
 
 
+@pytest.mark.slow  # trains
 def test_resume_keeps_the_league(tmp_path):
     short = tmp_path / "short"
     _run(short, budget=512)
@@ -124,6 +129,7 @@ def test_resume_keeps_the_league(tmp_path):
     assert state["history"][:2] == first["history"][:2]
 
 
+@pytest.mark.slow  # trains
 def test_a_fixed_pool_takes_no_snapshots(tmp_path):
     out = tmp_path / "br"
     curve = _run(out, budget=512, **{"league.opponents": "scripted"})

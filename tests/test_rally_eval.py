@@ -1,12 +1,14 @@
 """Evaluation rallies: each slot plays exactly one rally; baselines order as expected."""
 
 import numpy as np
+import pytest
 
 from rallysim.eval.rally_eval import rally_lengths_direct, rally_lengths_turns, random_goals
 from rallysim.policies import ScriptedController
 from rallysim.policies.registry import goal_conditioned
 
 
+@pytest.mark.slow
 def test_scripted_hierarchy_rallies_long_and_random_motor_control_does_not():
     lengths = rally_lengths_turns(random_goals(0), "scripted", 32, seed=0)
     assert lengths.shape == (32,) and lengths.min() >= 0 and lengths.max() <= 50

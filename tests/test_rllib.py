@@ -164,6 +164,7 @@ def test_rally_adapter_replays_the_parallel_env():
     assert total >= 0.0
 
 
+@pytest.mark.slow
 def test_turn_adapter_plays_turns_with_goals_from_unit_actions():
     env = TurnRallyMultiAgentEnv({"low_policy": "scripted"})
     check_multiagent_environments(env)
@@ -203,6 +204,7 @@ def local_ray():
     ray.shutdown()
 
 
+@pytest.mark.slow  # trains
 def test_local_training_writes_a_policy_that_evaluate_reads(local_ray, tmp_path, capsys):
     out = tmp_path / "low"
     args = ["train", "low", "--backend", "rllib", "--env-runners", "1", "--budget", "8000",
@@ -229,6 +231,7 @@ def test_local_training_writes_a_policy_that_evaluate_reads(local_ray, tmp_path,
     assert "HRL" in capsys.readouterr().out
 
 
+@pytest.mark.slow  # trains
 @pytest.mark.parametrize("stage", ["mono", "high"])
 def test_multi_agent_stages_count_decisions_of_both_players(local_ray, tmp_path, stage):
     from rallysim.rllib.runner import train_stage_rllib

@@ -102,6 +102,7 @@ def test_quiet_training_on_the_paper_task_prints_nothing_on_stderr(tmp_path, cap
         make_vec_env("RallySim/SimpleReturn-v0", n_envs=1).close()
 
 
+@pytest.mark.slow  # trains
 def test_smoke_training_improves_over_untrained_policy(tmp_path):
     untrained = PPO("MlpPolicy", make_env(SMOKE), seed=0, device="cpu", **SMOKE.ppo_kwargs())
     before = evaluate_return(deterministic(untrained), episodes=SMOKE.eval.episodes,
@@ -148,6 +149,7 @@ def test_save_load_round_trip(tmp_path):
     np.testing.assert_array_equal(again(obs), actions)
 
 
+@pytest.mark.slow  # trains
 def test_warm_started_training_is_bit_identical_per_seed(tmp_path):
     """The default pipeline's low stage (clone of the scripted controller, then PPO) on a
     tiny budget, twice with one seed: identical weights; another seed: different ones."""
