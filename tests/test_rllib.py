@@ -118,6 +118,29 @@ def test_export_equals_rlmodule_deterministic_actions(tmp_path):
     np.testing.assert_allclose(policy.log_std, [-0.3, -0.7, -1.1], atol=1e-7)
 
 
+def test_the_runner_reads_rllibs_counters_and_the_modules_actor():
+    """``rallysim.rllib.runner`` without a cluster: the budget's units and the mean return from
+    RLlib's result dicts, and a module's deterministic actor as the NumPy policy it exports."""
+    from rallysim.rllib.runner import _decisions, _episode_return, module_policy
+
+    low, mono = load_config("low"), load_config("mono")
+    # single-agent: env steps (decisions); multi-agent: agent steps, summed over the agents
+    assert _decisions(low, {"num_env_steps_sampled_lifetime": 4096,
+                            "num_agent_steps_sampled_lifetime": 7}) == 4096
+    assert _decisions(mono, {"num_env_steps_sampled_lifetime": 7,
+                             "num_agent_steps_sampled_lifetime": {"a": 1000, "b": 24}}) == 1024
+    assert _decisions(low, {}) == 0
+    assert _episode_return(low, {"episode_return_mean": 0.25}) == 0.25
+    assert _episode_return(mono, {"agent_episode_returns_mean": {"a": 1.0, "b": 4.0}}) == 2.5
+    assert math.isnan(_episode_return(mono, {})) and math.isnan(_episode_return(low, {}))
+    module = build_module()
+    policy = module_policy(module)
+    obs = np.random.default_rng(1).uniform(-1, 1, (64, 17)).astype(np.float32)
+    np.testing.assert_allclose(policy(obs), np.clip(deterministic_actions(module, obs), -1, 1),
+                               rtol=1e-5, atol=1e-5)
+    np.testing.assert_allclose(policy.log_std, -0.5, atol=1e-7)
+
+
 def test_export_refuses_a_shared_encoder():
     from ray.rllib.core.rl_module.rl_module import RLModuleSpec
 
