@@ -4,6 +4,7 @@ its swing model against the simulator, its reading of the arm, its aim and its t
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from rallysim.core.humanlike import HumanLikeBodies
 from rallysim.envs.humanlike_return_v0 import HumanLikeReturnVectorEnv
@@ -94,6 +95,7 @@ def test_aimed_swing_follows_a_commanded_target():
     assert np.allclose(got, target, atol=0.02)
 
 
+@pytest.mark.slow
 def test_a_meeting_a_step_off_still_hits_near_the_target():
     """Holding the arm 3 deg higher or lower moves the meeting into the coasting decision's
     step before or after the planned one; the coasting arm still hits at nearly the target

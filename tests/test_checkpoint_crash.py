@@ -104,6 +104,7 @@ def _assert_same(a: list[np.ndarray], b: list[np.ndarray]) -> None:
         np.testing.assert_array_equal(x, y)
 
 
+@pytest.mark.slow  # kills
 def test_ppo_killed_at_every_write_point_resumes_losing_at_most_one_interval(tmp_path,
                                                                             killed_run):
     out = tmp_path / "run"
@@ -146,6 +147,7 @@ def test_ppo_killed_at_every_write_point_resumes_losing_at_most_one_interval(tmp
     _assert_same(_layers(out / "policy"), exported)
 
 
+@pytest.mark.slow  # kills
 def test_warm_start_killed_at_every_write_point_resumes_bit_identical(tmp_path, killed_run):
     reference = train_stage(load_config("low", None, WARM), tmp_path / "reference",
                             progress=False)

@@ -406,6 +406,7 @@ def test_traceback_on_request(monkeypatch, no_long_work):
         main(["train", "low", "--set", "ppo.gamma=5"])
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not (hasattr(os, "mkfifo") and Path("/dev/zero").exists()),
                     reason="needs FIFOs, symbolic links and /dev/zero")
 def test_policy_loader_says_what_a_path_that_is_not_a_file_is(tmp_path, no_long_work, capsys):

@@ -41,6 +41,7 @@ def test_spaces_and_sides():
     assert (obs[:, -1] == 1.0).all()
 
 
+@pytest.mark.slow
 def test_reward_is_the_point_margin_and_deep_shots_win():
     # goal 6 m (a = 1) beats the scripted controller; 3 m (a = -0.5) loses to it (seed 7:
     # 90-29 and 17-133 over 60 turns of 16 games)
@@ -52,6 +53,7 @@ def test_reward_is_the_point_margin_and_deep_shots_win():
     assert short[0] / (short[0] + short[1]) < 0.25
 
 
+@pytest.mark.slow
 def test_seeded_replay_and_copies():
     a, b = _env(8, seed=3), _env(8, seed=99)
     a.reset(seed=11)
@@ -72,6 +74,7 @@ def test_seeded_replay_and_copies():
             np.testing.assert_array_equal(c_reward, reward)
 
 
+@pytest.mark.slow
 def test_games_end_and_reset_in_the_same_step():
     env = _env(2, max_decisions=3000)
     env.reset(seed=5)
@@ -129,6 +132,7 @@ def test_a_resumed_opponent_stream_survives_the_trainers_seeded_reset():
     assert (restarted.opponent_of != expected).any()  # the stream from its start differs
 
 
+@pytest.mark.slow
 @pytest.mark.numerics
 def test_golden_turns_against_a_mixed_pool():
     """80 seeded turns of 8 games against two opponents, hashed (observations, rewards, ends,

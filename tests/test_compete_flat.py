@@ -106,6 +106,7 @@ def flat_run(tmp_path_factory):
     return out, _run(out)
 
 
+@pytest.mark.slow  # trains
 def test_snapshots_are_monolithic_players(flat_run):
     out, curve = flat_run
     names = sorted(p.stem for p in (out / "pool").glob("*.json"))
@@ -120,6 +121,7 @@ def test_snapshots_are_monolithic_players(flat_run):
     assert 0.0 <= curve["final"]["point_win_rate"] <= 1.0
 
 
+@pytest.mark.slow  # trains
 def test_the_actor_starts_from_the_cooperative_monolithic_policy(flat_run):
     """The first snapshot, taken before any update, is the shipped simple_mono's actor."""
     out, _ = flat_run
@@ -131,6 +133,7 @@ def test_the_actor_starts_from_the_cooperative_monolithic_policy(flat_run):
     np.testing.assert_array_equal(first.log_std, shipped.log_std)
 
 
+@pytest.mark.slow  # trains
 def test_same_seed_same_weights(flat_run, tmp_path):
     out, _ = flat_run
     again = tmp_path / "again"
@@ -152,6 +155,7 @@ def test_load_actor_refuses_another_shape(tmp_path):
 
 
 # -- the study -----------------------------------------------------------------------------------
+@pytest.mark.slow  # trains
 def test_a_tiny_flat_study(tmp_path, monkeypatch):
     from experiments import compete_flat_study as flat
 

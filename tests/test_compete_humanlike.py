@@ -42,12 +42,14 @@ def scripted_vs_random(tmp_path_factory):
     return code, json.loads(out.read_text())["competitive"]
 
 
+@pytest.mark.slow
 def test_evaluate_plays_humanlike_players(scripted_vs_random):
     code, doc = scripted_vs_random
     assert code == 0 and doc["players"] == ["scripted", "random"]
     assert doc["settings"]["player"] == "humanlike"
 
 
+@pytest.mark.slow  # (scripted_vs_random: HUMAN-LIKE games)
 def test_the_scripted_swing_beats_random_goals(scripted_vs_random):
     _, doc = scripted_vs_random
     assert doc["points"] >= 30
@@ -55,6 +57,7 @@ def test_the_scripted_swing_beats_random_goals(scripted_vs_random):
     assert 1.0 <= doc["mean_rally"]["value"] <= 10.0
 
 
+@pytest.mark.slow
 def test_a_humanlike_low_level_makes_the_games_humanlike(tmp_path):
     # --low names a HUMAN-LIKE low level: the player kind follows it without --player
     out = tmp_path / "games.json"
@@ -64,6 +67,7 @@ def test_a_humanlike_low_level_makes_the_games_humanlike(tmp_path):
     assert json.loads(out.read_text())["competitive"]["settings"]["player"] == "humanlike"
 
 
+@pytest.mark.slow  # trains
 def test_the_compete_stage_trains_a_humanlike_high_level(tmp_path):
     pytest.importorskip("stable_baselines3")
     from rallysim.policies.mlp import load_policy

@@ -19,7 +19,8 @@ from rallysim.train.results_doc import regenerate
 ROOT = Path(__file__).resolve().parents[1]
 TINY = {"ppo.n_envs": 8, "ppo.n_steps": 64, "ppo.batch_size": 256, "ppo.n_epochs": 1,
         "checkpoint_every": 512, "eval.every": 0, "eval.episodes": 1,
-        "league.snapshot_every": 512, "league.rating_games": 1, "league.ladder": "scripted"}
+        "league.snapshot_every": 512, "league.rating_games": 1, "league.ladder": "scripted",
+        "league.rating_decisions": 1500}  # (the default 5,000 took most of the time)
 
 
 def test_pooled_rate_is_points_won_over_points_played():
@@ -32,6 +33,7 @@ def test_pooled_rate_is_points_won_over_points_played():
         "value": 0.5, "low": 0.5, "high": 0.5}
 
 
+@pytest.mark.slow  # trains
 def test_a_tiny_study(tmp_path, monkeypatch):
     monkeypatch.setattr(study, "OPPONENTS", ("scripted",))
     path = study.run_seed(0, tmp_path, budget=512, br_budget=512, games=2,
@@ -111,6 +113,7 @@ def test_a_tiny_study(tmp_path, monkeypatch):
     assert {**again["crossplay"], "wall_s": 0} == {**cp, "wall_s": 0}
 
 
+@pytest.mark.slow  # trains
 def test_a_seed_without_best_response_is_summarised_not_reported(tmp_path, monkeypatch):
     monkeypatch.setattr(study, "OPPONENTS", ("scripted",))
     doc = json.loads(study.run_seed(0, tmp_path, budget=512, br_budget=0, games=1,

@@ -18,11 +18,13 @@ from rallysim.train import checkpoint as ckpt
 from rallysim.train.config import load_config
 from rallysim.train.runner import train_stage
 
-# 512 turns per rollout; snapshots at 0 and every 512 turns; a tiny evaluation
+# 512 turns per rollout; snapshots at 0 and every 512 turns; a tiny evaluation. Games stop
+# after 1,500 decisions (ratings too: 5,000 by default), which still score 6-8 points against
+# the scripted player: most of a run's time is these games, not PPO.
 TINY = {"budget": 1024, "ppo.n_envs": 8, "ppo.n_steps": 64, "ppo.batch_size": 256,
         "ppo.n_epochs": 2, "checkpoint_every": 512, "eval.every": 0, "eval.episodes": 2,
-        "league.snapshot_every": 512, "league.max_decisions": 3000,
-        "league.rating_games": 1, "league.ladder": "scripted"}
+        "league.snapshot_every": 512, "league.max_decisions": 1500,
+        "league.rating_decisions": 1500, "league.rating_games": 1, "league.ladder": "scripted"}
 
 
 def _run(out: Path, **overrides) -> dict:
@@ -40,6 +42,7 @@ def league_run(tmp_path_factory):
     return out, _run(out)
 
 
+@pytest.mark.slow  # trains
 def test_snapshots_follow_the_schedule(league_run):
     out, curve = league_run
     names = sorted(p.stem for p in (out / "pool").glob("*.json"))
@@ -53,6 +56,7 @@ def test_snapshots_follow_the_schedule(league_run):
     assert final["vs_scripted"]["points"] > 0
 
 
+@pytest.mark.slow  # trains
 def test_the_league_is_saved_with_each_checkpoint(league_run):
     out, _ = league_run
     latest = ckpt.latest_checkpoint(out)
@@ -68,6 +72,7 @@ def test_the_league_is_saved_with_each_checkpoint(league_run):
     assert players["scripted"] == {"mu": 25.0, "sigma": 25.0 / 3.0}
 
 
+@pytest.mark.slow  # trains
 def test_the_league_rates_with_the_shared_function(league_run, monkeypatch):
     # League.rate is eval.ratings.rate_against: the same games rated the same way give the
     # league's logged ratings float for float
@@ -101,6 +106,7 @@ def test_the_league_rates_with_the_shared_function(league_run, monkeypatch):
     assert league.rate("new")["point_win_rate"] == {} and calls == ["new"]
 
 
+@pytest.mark.slow  # trains
 def test_same_seed_same_weights(league_run, tmp_path):
     out, _ = league_run
     again = tmp_path / "again"
@@ -110,6 +116,7 @@ def test_same_seed_same_weights(league_run, tmp_path):
         again / "pool" / "snapshot_000000000512.safetensors").read_bytes()
 
 
+@pytest.mark.slow  # trains
 def test_resume_keeps_the_league(tmp_path):
     short = tmp_path / "short"
     _run(short, budget=512)
@@ -122,6 +129,7 @@ def test_resume_keeps_the_league(tmp_path):
     assert state["history"][:2] == first["history"][:2]
 
 
+@pytest.mark.slow  # trains
 def test_a_fixed_pool_takes_no_snapshots(tmp_path):
     out = tmp_path / "br"
     curve = _run(out, budget=512, **{"league.opponents": "scripted"})

@@ -121,6 +121,7 @@ def test_random_goals_lose_most_points_to_the_scripted_player(random_vs_scripted
     assert 0.05 < p["value"] < 0.35  # measured 0.20 on 16 full games (seed 1)
 
 
+@pytest.mark.slow
 def test_a_fixed_seed_reproduces_the_games():
     runs = [play_games(agent("random"), agent("scripted"), 2, seed=5, max_decisions=600)
             for _ in range(2)]
@@ -132,6 +133,7 @@ def test_a_fixed_seed_reproduces_the_games():
         summarise(runs[1]))
 
 
+@pytest.mark.slow
 def test_short_goals_beat_the_scripted_player(short_vs_scripted):
     s = summarise(short_vs_scripted)
     p = s["point_win_rate"]
@@ -140,6 +142,7 @@ def test_short_goals_beat_the_scripted_player(short_vs_scripted):
     assert s["mean_rally"]["low"] <= s["mean_rally"]["value"] <= s["mean_rally"]["high"]
 
 
+@pytest.mark.slow
 def test_swapping_the_players_mirrors_the_rate_within_the_intervals(short_vs_scripted):
     # not exactly: with a and b swapped each game puts the players on the other sides, so the
     # serves (seeded per game) differ; the rates agree within their intervals
@@ -150,6 +153,7 @@ def test_swapping_the_players_mirrors_the_rate_within_the_intervals(short_vs_scr
     assert 1 - back["high"] <= forward["high"] and forward["low"] <= 1 - back["low"]
 
 
+@pytest.mark.slow  # (short_vs_scripted: 32 games)
 def test_the_same_games_seen_from_the_other_side_mirror_exactly(short_vs_scripted):
     g = short_vs_scripted
     other = Games(points=g.points[:, ::-1].copy(), winner=np.where(g.winner < 0, -1,
@@ -220,6 +224,7 @@ def test_crossplay_ratings_come_from_its_games(cross):
     assert all(ratings.sigma(n) < 25.0 / 3.0 for n in CROSS)  # every player was rated
 
 
+@pytest.mark.slow
 def test_a_matrix_of_chosen_pairs_leaves_the_others_empty(cross):
     played = play_pairs(CROSS, [(CROSS[0], CROSS[1])], **CROSS_ARGS)
     m = matrix(CROSS, played, **CROSS_ARGS)
@@ -269,6 +274,7 @@ def test_heatmap_is_a_png_of_the_expected_size(cross, tmp_path):
 
 # ---- rallysim evaluate --mode competitive ----
 
+@pytest.mark.slow
 def test_cli_two_players_writes_the_first_players_rates(tmp_path, capsys):
     out = tmp_path / "deep" / "two.json"
     assert main(["evaluate", "--mode", "competitive", "--players", "random", "scripted",
@@ -304,6 +310,7 @@ def test_cli_plays_the_champion_by_name_once_shipped(tmp_path, monkeypatch, caps
     assert 0.0 <= p["low"] <= p["value"] <= p["high"] <= 1.0
 
 
+@pytest.mark.slow
 def test_cli_crossplay_matches_the_function_and_draws_the_heat_map(cross, tmp_path, capsys):
     out, figure = tmp_path / "cross.json", tmp_path / "fig" / "cross.png"
     argv = ["evaluate", "--mode", "competitive", "--players", *CROSS, "--games", "2",
@@ -357,6 +364,7 @@ def test_cli_competitive_errors_are_one_line_before_any_game(argv, word, monkeyp
     assert list(tmp_path.iterdir()) == []  # nothing written
 
 
+@pytest.mark.slow
 def test_the_shipped_champion_beats_the_scripted_and_hrl_players(tmp_path):
     """``simple_compete`` (docs/competitive.md: the study's best seed) wins most points against
     the scripted controller and the cooperative HRL agent; measured on these 8 games of at

@@ -13,6 +13,15 @@ from golden import Hasher, View, views
 # One shuttle model is enough: the copy mechanism does not depend on the flight model.
 VIEWS = {v.name: v for v in views() if "/paper" in v.name and "alg1" not in v.name}
 STEPS = 40
+# The fast tier (``pytest -m "not slow"``) copies every view but the turn views that play whole
+# turns per step (SIMPLE's turn_vector stays): HUMAN-LIKE's take 7-30 s each.
+SLOW = {name for name in VIEWS
+        if "turn" in name.lower() and name != "simple_rally_v0/turn_vector/paper"}
+
+
+def _names() -> list:
+    return [pytest.param(name, marks=pytest.mark.slow) if name in SLOW else name
+            for name in sorted(VIEWS)]
 
 
 def _play(view: View, env, seed: int) -> str:
@@ -22,7 +31,7 @@ def _play(view: View, env, seed: int) -> str:
 
 
 @pytest.mark.parametrize("how", ["deepcopy", "pickle"])
-@pytest.mark.parametrize("name", sorted(VIEWS))
+@pytest.mark.parametrize("name", _names())
 def test_a_copy_mid_episode_steps_like_its_original(name, how):
     view = VIEWS[name]
     env = view.make()
@@ -36,7 +45,7 @@ def test_a_copy_mid_episode_steps_like_its_original(name, how):
     assert _play(view, env, 1) == copied
 
 
-@pytest.mark.parametrize("name", sorted(VIEWS))
+@pytest.mark.parametrize("name", _names())
 def test_a_copy_before_reset_replays_the_seeded_episode(name):
     view = VIEWS[name]
     fresh = view.make()

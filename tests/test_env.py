@@ -197,6 +197,7 @@ def test_next_step_and_same_step_autoreset():
     assert not np.array_equal(info["final_obs"][0], obs[0])
 
 
+@pytest.mark.slow
 def test_scripted_controller_returns_most_serves_near_target():
     env = SimpleReturnVectorEnv(128, autoreset_mode="same_step")
     r = evaluate_return(ScriptedController().act_return, env, episodes=768, seed=0)

@@ -116,6 +116,7 @@ def test_drawing_modules_never_import_envs():
             assert module.split(".")[:3] != ["rallysim", "render", "play"], (name, module)
 
 
+@pytest.mark.slow  # fresh interpreters
 def test_importing_render_loads_no_env_module_and_envs_load_no_render_module():
     import ast
     import subprocess

@@ -35,6 +35,9 @@ from pathlib import Path
 import pytest
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
+# each example runs in a fresh interpreter (torch, Ray...); most of them train
+pytestmark = pytest.mark.slow
+
 
 def run_example(name: str, *args: str, cwd: Path, quiet: bool = False,
                 env: dict[str, str] | None = None) -> list[dict[str, str]]:

@@ -175,6 +175,7 @@ def test_v1_copies_mid_episode_step_like_their_original(how):
 
 # -- RallySim/HumanLikeRallyTurn-v0 ------------------------------------------------------------
 
+@pytest.mark.slow
 def test_humanlike_turn_id_is_the_classes_episode_for_episode():
     env = gym.make(HUMANLIKE_RALLY_TURN_ID)
     assert isinstance(env.unwrapped, HumanLikeRallyTurnEnv)

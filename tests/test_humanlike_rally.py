@@ -57,6 +57,7 @@ def test_serve_and_start_mirror_for_player_one():
     assert np.allclose(b.game.shuttle.vel, a.game.shuttle.vel * [-1, -1, 1])
 
 
+@pytest.mark.slow
 def test_centre_goal_rallies_to_the_cap_and_random_goals_do_not():
     centre = rally_lengths_turns(lambda o: np.zeros((len(o), 3)), "scripted", 8, seed=1,
                                  player=HUMANLIKE)

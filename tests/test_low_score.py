@@ -18,6 +18,7 @@ from rallysim.policies import ScriptedController
 SCRIPTED = ScriptedController()
 
 
+@pytest.mark.slow
 def test_reachable_depths_bound_the_scripted_shots():
     """Over 1,000 fresh serves the planner says 38-40 % of U[2, 6] m goals can be reached (a
     full-speed shot from any meeting the base makes lands at most ~3.8 m deep, the median);
@@ -33,6 +34,7 @@ def test_reachable_depths_bound_the_scripted_shots():
     assert 0.37 < np.mean((goal >= lo) & (goal <= hi)) < 0.41
 
 
+@pytest.mark.slow
 def test_goal_following_tells_aiming_from_a_fixed_goal():
     """The scripted controller follows its goal (correlation 0.94 over reachable goals, median
     error 0.46 m); the same controller aiming at 4 m whatever the goal does not (0.31)."""
@@ -45,6 +47,7 @@ def test_goal_following_tells_aiming_from_a_fixed_goal():
     assert aimed["reachable_hits"] == fixed["reachable_hits"] == 114  # the same serves
 
 
+@pytest.mark.slow
 def test_evaluate_writes_the_low_level_scores(tmp_path, capsys):
     path = tmp_path / "eval.json"
     assert main(["evaluate", "--low", "pretrained", "--rallies", "2", "--seeds", "1",
@@ -58,6 +61,7 @@ def test_evaluate_writes_the_low_level_scores(tmp_path, capsys):
                                                                 abs=5e-4)
 
 
+@pytest.mark.slow
 def test_v1_draws_goals_the_serve_makes_reachable():
     """SimpleReturn-v1's goals lie in the serve's reachable depths (within [2, 6] m) wherever
     the serve reaches some of that range; v0's do only 39 % of the time. The same seed gives
@@ -137,6 +141,7 @@ def test_v1_goal_option_does_not_shift_the_stream():
     np.testing.assert_array_equal(plain.reset()[0], given.reset()[0])
 
 
+@pytest.mark.slow
 def test_the_low_stage_evaluation_scores_goal_following():
     """The low stage's periodic evaluation (its learning curve) carries the goal following of
     the same episodes: the scripted controller's correlation over reachable goals, about 0.94,

@@ -58,6 +58,7 @@ def _with_kernel(env: SimpleReturnEnv, kernel: str) -> SimpleReturnEnv:
     return env
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("kernel", KERNELS)
 @pytest.mark.parametrize("kind", ["random", "scripted", "extreme"])
 def test_fused_steps_replay_the_lanes_code_and_a_batch(kind, kernel):

@@ -52,6 +52,7 @@ def _actions(kind: str, rng: np.random.Generator, obs: np.ndarray,
 
 
 
+@pytest.mark.slow
 @NEEDS_COMPILED
 @pytest.mark.parametrize("kind", ["random", "scripted", "extreme"])
 def test_compiled_steps_replay_python_and_a_batch(kind):
@@ -170,6 +171,7 @@ def _fresh_kernel(monkeypatch) -> native.Kernel:
     return kernel
 
 
+@pytest.mark.slow
 @NEEDS_COMPILED
 def test_the_probe_refuses_row_sums_or_a_solve_unlike_numpys(monkeypatch):
     def sequential(p, out):  # the same terms, added left to right
@@ -218,6 +220,7 @@ def test_without_numpys_dgesv_it_says_why(monkeypatch):
     assert kernel.why_not == "NumPy's LAPACK has no 64-bit-integer dgesv (no_such_dgesv_)"
 
 
+@pytest.mark.slow
 @NEEDS_COMPILED
 def test_a_shaped_game_replays_python_and_a_batch():
     """The approach counts of ``Game(shaping=True)`` (the HUMAN-LIKE task does not shape):

@@ -31,12 +31,14 @@ def test_pretrained_low_level_returns_serves():
     assert r.hit_rate > 0.95 and r.mean_reward > 1.5
 
 
+@pytest.mark.slow
 def test_pretrained_hierarchy_rallies_long():
     lengths = rally_lengths_turns(resolve("pretrained", "high"), resolve("pretrained", "rally_low"),
                                   32, seed=99)
     assert lengths.mean() > 30
 
 
+@pytest.mark.slow
 def test_evaluate_pretrained_writes_every_number(tmp_path):
     path = tmp_path / "eval.json"
     assert main(["evaluate", "--pretrained", "--rallies", "8", "--seeds", "1", "--json",
@@ -46,6 +48,7 @@ def test_evaluate_pretrained_writes_every_number(tmp_path):
     assert np.isfinite(data["methods"]["HRL"]["mean"]["value"])
 
 
+@pytest.mark.slow
 def test_pretrained_humanlike_hierarchy_meets_the_targets(tmp_path):
     """The shipped HUMAN-LIKE low level (a clone of AimedSwing after DAgger, trained by
     ``rallysim train low --player humanlike``) on fresh serves: issue 5's targets (hit rate
@@ -69,6 +72,7 @@ def test_pretrained_humanlike_hierarchy_meets_the_targets(tmp_path):
     assert json.loads(path.read_text())["rally"]["mean"]["value"] < 0.5 * hierarchy
 
 
+@pytest.mark.slow
 @pytest.mark.numerics
 def test_shipped_humanlike_low_rl_is_scored_like_the_clone(tmp_path):
     """``humanlike_low_rl`` (PPO from scratch on HumanLikeReturn-v0, the paper's reward, no

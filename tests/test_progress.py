@@ -33,6 +33,7 @@ def test_eta_format():
     assert format_eta(3 * 3600 + 62) == "3:01:02"
 
 
+@pytest.mark.slow  # trains
 def test_training_without_a_terminal_prints_progress_lines(tmp_path, monkeypatch):
     pytest.importorskip("stable_baselines3")
     from rallysim.train.config import load_config
@@ -53,6 +54,7 @@ def test_training_without_a_terminal_prints_progress_lines(tmp_path, monkeypatch
     assert all(" decisions, " in b for b in beats)  # counted in the stage's budget unit
 
 
+@pytest.mark.slow  # trains
 def test_the_warm_start_counts_its_epochs_then_ppo_its_decisions(tmp_path, monkeypatch):
     pytest.importorskip("stable_baselines3")
     from rallysim.train.config import load_config
@@ -75,6 +77,7 @@ def test_the_warm_start_counts_its_epochs_then_ppo_its_decisions(tmp_path, monke
     assert all("/4,096 decisions, " in line for line in ppo)
 
 
+@pytest.mark.slow  # trains
 @pytest.mark.parametrize("tty", [False, True])
 def test_progress_lines_only_without_a_terminal(tmp_path, monkeypatch, capsys, tty):
     """``train`` (progress on): a bar on a terminal; heartbeat lines on stderr otherwise."""

@@ -11,6 +11,7 @@ from rallysim.envs import simple_rally_turn_v0, simple_rally_v0
 from rallysim.policies import ScriptedController
 
 
+@pytest.mark.slow
 def test_pettingzoo_api_and_seed_tests():
     parallel_api_test(simple_rally_v0.parallel_env(), num_cycles=300)
     parallel_seed_test(simple_rally_v0.parallel_env, num_cycles=100)
@@ -51,6 +52,7 @@ def scripted_rally_lengths(shuttle: str, n: int = 64, rallies: int = 200, seed: 
     return np.array(lengths)
 
 
+@pytest.mark.slow
 def test_scripted_players_keep_a_rally_going():
     lengths = scripted_rally_lengths("paper")
     assert lengths.mean() >= 10
@@ -75,6 +77,7 @@ def play_parallel(seed: int):
     return env, total, hits, term, trunc, info
 
 
+@pytest.mark.slow
 def test_cap_ends_the_rally_at_exactly_50_hits_and_hits_reward_both():
     capped = 0
     for seed in range(6):

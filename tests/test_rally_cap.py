@@ -38,6 +38,7 @@ def _hard_random(rng: np.random.Generator, shape: tuple[int, ...]) -> np.ndarray
     return a
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("mode", ["cooperative", "competitive"])
 def test_several_hits_in_one_decision_stop_at_the_cap(mode):
     task = RallyTask(256, RallyConfig(max_hits=CAP, mode=mode), seed=CAP)
@@ -55,6 +56,7 @@ def test_several_hits_in_one_decision_stop_at_the_cap(mode):
     assert longest == CAP and capped > 0  # rallies do reach the cap
 
 
+@pytest.mark.slow
 def test_a_decision_of_two_hits_stops_at_the_hit_that_reaches_the_cap():
     """With the net re-arming both players, some decisions of random play hold two hits or
     more; replayed with the cap one hit above where it began, such a decision ends the rally
@@ -100,6 +102,7 @@ def _humanlike_random_goals(seed: int):
     return resolve("random", "high", "humanlike", seed)
 
 
+@pytest.mark.slow
 def test_a_random_monolithic_policy_stays_within_the_cap():
     rng = np.random.default_rng(1)
 
@@ -132,7 +135,14 @@ def _lengths(info: Any) -> list[int]:
     return []
 
 
-@pytest.mark.parametrize("name", [name for name, _ in _views(CAP)])
+# the fast tier (``pytest -m "not slow"``) caps the views that take under 2 s here
+FAST_VIEWS = {"simple/vector", "simple/parallel/cooperative", "simple/parallel/competitive",
+              "simple/turn_aec/cooperative", "humanlike/parallel/cooperative"}
+
+
+@pytest.mark.parametrize("name", [
+    name if name in FAST_VIEWS else pytest.param(name, marks=pytest.mark.slow)
+    for name, _ in _views(CAP)])
 def test_every_view_stops_at_the_cap(name):
     env = dict(_views(CAP))[name]
     rng = np.random.default_rng(2)

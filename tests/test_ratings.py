@@ -235,6 +235,7 @@ def ladder() -> tuple[Ratings, dict]:
     return calibrate(["mono", "random", "scripted"], games=4, seed=1, max_decisions=1500)
 
 
+@pytest.mark.slow
 def test_calibration_rates_the_ladder_in_its_order(ladder):
     ratings, played = ladder
     assert list(played) == [("mono", "random"), ("mono", "scripted"), ("random", "scripted")]
@@ -250,6 +251,7 @@ def test_calibration_rates_the_ladder_in_its_order(ladder):
     assert "fixed:6" in REFERENCE_LADDER
 
 
+@pytest.mark.slow
 def test_a_stronger_player_rates_higher_against_the_fixed_ladder(ladder):
     calibrated, _ = ladder
     ratings = Ratings.from_json(calibrated.to_json())

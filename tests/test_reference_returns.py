@@ -9,6 +9,7 @@ import pytest
 from experiments.reference_returns import TASKS, pool, render, run_one
 
 
+@pytest.mark.slow  # trains
 def test_a_run_is_seeded_and_scores_its_task():
     """PPO on SimpleReturn-v0 for its smallest budget (two rollouts of the low stage's 256 x
     16): the same seed gives the same returns; the task's own measures come with them."""
@@ -105,6 +106,7 @@ def test_the_goal_view_relabels_with_the_envs_own_reward():
     assert not np.allclose(sum(r[0] for r in at3), sum(r[0] for r in at5))  # goals mattered
 
 
+@pytest.mark.slow  # trains
 def test_sac_with_hindsight_relabelling_runs_at_smoke_scale():
     run = run_one("SimpleReturn-v0", "SAC+HER", 0, 1e-6, 8)
     assert run["steps"] == 1280 and len(run["returns"]) == 8  # 640 random, then updates
@@ -113,6 +115,7 @@ def test_sac_with_hindsight_relabelling_runs_at_smoke_scale():
         run_one("SimpleRally-v0 (parallel)", "SAC+HER", 0, 1e-6, 8)
 
 
+@pytest.mark.slow  # trains
 def test_random_actions_are_the_floor_row():
     run = run_one("SimpleRallyTurn-v1", "random", 0, 1.0, 4)
     assert run["steps"] == 0 and len(run["returns"]) == 4

@@ -272,6 +272,7 @@ def player_mask(view: SceneRenderer, player: int) -> np.ndarray:
     return np.any(shown != hidden, axis=2)
 
 
+@pytest.mark.slow
 @pytest.mark.numerics
 def test_record_rally_draws_the_seeded_3d_rally(monkeypatch):
     """``rallysim render --player humanlike``'s recorder with the shipped pretrained levels:

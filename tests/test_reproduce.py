@@ -12,6 +12,8 @@ pytest.importorskip("stable_baselines3")
 from rallysim.cli import main
 from rallysim.train.reproduce import BUDGETS, run_reproduce
 
+pytestmark = pytest.mark.slow  # every test reads the smoke reproduction (it trains 6 policies)
+
 
 @pytest.fixture(scope="module")
 def smoke_run(tmp_path_factory):

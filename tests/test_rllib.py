@@ -118,6 +118,29 @@ def test_export_equals_rlmodule_deterministic_actions(tmp_path):
     np.testing.assert_allclose(policy.log_std, [-0.3, -0.7, -1.1], atol=1e-7)
 
 
+def test_the_runner_reads_rllibs_counters_and_the_modules_actor():
+    """``rallysim.rllib.runner`` without a cluster: the budget's units and the mean return from
+    RLlib's result dicts, and a module's deterministic actor as the NumPy policy it exports."""
+    from rallysim.rllib.runner import _decisions, _episode_return, module_policy
+
+    low, mono = load_config("low"), load_config("mono")
+    # single-agent: env steps (decisions); multi-agent: agent steps, summed over the agents
+    assert _decisions(low, {"num_env_steps_sampled_lifetime": 4096,
+                            "num_agent_steps_sampled_lifetime": 7}) == 4096
+    assert _decisions(mono, {"num_env_steps_sampled_lifetime": 7,
+                             "num_agent_steps_sampled_lifetime": {"a": 1000, "b": 24}}) == 1024
+    assert _decisions(low, {}) == 0
+    assert _episode_return(low, {"episode_return_mean": 0.25}) == 0.25
+    assert _episode_return(mono, {"agent_episode_returns_mean": {"a": 1.0, "b": 4.0}}) == 2.5
+    assert math.isnan(_episode_return(mono, {})) and math.isnan(_episode_return(low, {}))
+    module = build_module()
+    policy = module_policy(module)
+    obs = np.random.default_rng(1).uniform(-1, 1, (64, 17)).astype(np.float32)
+    np.testing.assert_allclose(policy(obs), np.clip(deterministic_actions(module, obs), -1, 1),
+                               rtol=1e-5, atol=1e-5)
+    np.testing.assert_allclose(policy.log_std, -0.5, atol=1e-7)
+
+
 def test_export_refuses_a_shared_encoder():
     from ray.rllib.core.rl_module.rl_module import RLModuleSpec
 
@@ -164,6 +187,7 @@ def test_rally_adapter_replays_the_parallel_env():
     assert total >= 0.0
 
 
+@pytest.mark.slow
 def test_turn_adapter_plays_turns_with_goals_from_unit_actions():
     env = TurnRallyMultiAgentEnv({"low_policy": "scripted"})
     check_multiagent_environments(env)
@@ -203,6 +227,7 @@ def local_ray():
     ray.shutdown()
 
 
+@pytest.mark.slow  # trains
 def test_local_training_writes_a_policy_that_evaluate_reads(local_ray, tmp_path, capsys):
     out = tmp_path / "low"
     args = ["train", "low", "--backend", "rllib", "--env-runners", "1", "--budget", "8000",
@@ -229,6 +254,7 @@ def test_local_training_writes_a_policy_that_evaluate_reads(local_ray, tmp_path,
     assert "HRL" in capsys.readouterr().out
 
 
+@pytest.mark.slow  # trains
 @pytest.mark.parametrize("stage", ["mono", "high"])
 def test_multi_agent_stages_count_decisions_of_both_players(local_ray, tmp_path, stage):
     from rallysim.rllib.runner import train_stage_rllib

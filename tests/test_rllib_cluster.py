@@ -26,7 +26,7 @@ import pytest
 pytest.importorskip("ray")
 pytest.importorskip("torch")
 
-pytestmark = pytest.mark.cluster
+pytestmark = [pytest.mark.cluster, pytest.mark.slow]
 RAY = str(Path(sys.executable).with_name("ray"))
 # Budget and settings measured to rise reliably: the last iterations' mean episode reward is
 # 0.5-0.75 against 0.02-0.05 at the start (a random policy rarely hits the serve).

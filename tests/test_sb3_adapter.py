@@ -205,7 +205,8 @@ def test_missing_sb3_names_the_extra():
 
 @pytest.mark.parametrize(("missing", "translated"), [
     ("stable_baselines3", True), ("stable_baselines3.common.vec_env", True), ("torch", True),
-    ("cloudpickle", False),  # SB3 imports it: its own error, not "install SB3"
+    # SB3 imports it: its own error, not "install SB3"
+    pytest.param("cloudpickle", False, marks=pytest.mark.slow),
 ])
 def test_only_missing_sb3_or_torch_is_translated(missing, translated):
     code = (f"import sys; sys.modules[{missing!r}] = None\n"

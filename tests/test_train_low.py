@@ -102,6 +102,7 @@ def test_quiet_training_on_the_paper_task_prints_nothing_on_stderr(tmp_path, cap
         make_vec_env("RallySim/SimpleReturn-v0", n_envs=1).close()
 
 
+@pytest.mark.slow  # trains
 def test_smoke_training_improves_over_untrained_policy(tmp_path):
     untrained = PPO("MlpPolicy", make_env(SMOKE), seed=0, device="cpu", **SMOKE.ppo_kwargs())
     before = evaluate_return(deterministic(untrained), episodes=SMOKE.eval.episodes,
@@ -148,6 +149,7 @@ def test_save_load_round_trip(tmp_path):
     np.testing.assert_array_equal(again(obs), actions)
 
 
+@pytest.mark.slow  # trains
 def test_warm_started_training_is_bit_identical_per_seed(tmp_path):
     """The default pipeline's low stage (clone of the scripted controller, then PPO) on a
     tiny budget, twice with one seed: identical weights; another seed: different ones."""
@@ -166,3 +168,30 @@ def test_warm_started_training_is_bit_identical_per_seed(tmp_path):
     first = run(3, "a")
     assert run(3, "b") == first
     assert run(4, "c") != first
+
+
+def test_a_short_behaviour_clone_moves_the_actor_toward_the_teacher(tmp_path):
+    """The warm start alone (rallysim.train.warm_start), on a budget the fast tier affords:
+    16,384 decisions of the scripted controller, 4 epochs, no DAgger."""
+    from rallysim.train import stages
+    from rallysim.train.runner import build_model, warm_start
+
+    config = load_config("low", None, {
+        "ppo.n_envs": 16, "ppo.n_steps": 32, "ppo.batch_size": 256, "eval.episodes": 16,
+        "warm_start.teacher": "scripted", "warm_start.decisions": 16384,
+        "warm_start.epochs": 4, "warm_start.batch_size": 256, "warm_start.dagger": 0})
+    model = build_model(config, tmp_path)
+    teacher, name = stages.of(config).teacher(config)
+    obs, _ = SimpleReturnVectorEnv(64, seed=99).reset(seed=99)
+    target = teacher(obs)
+
+    def error() -> float:
+        return float(np.mean((deterministic(model)(obs) - target) ** 2))
+
+    before = error()
+    result = warm_start(model, config, progress=False)
+    assert result["teacher"] == name == "ScriptedController"
+    # the finished episodes' decisions (11,586 here), not those still in flight at the end
+    assert 0.5 * 16384 < result["samples"] <= 16384
+    assert np.isfinite(result["actor_mse"]) and np.isfinite(result["critic_mse"])
+    assert error() < 0.5 * before  # 0.81 before, 0.31 after

@@ -82,6 +82,7 @@ def test_corrupted_or_mismatched_checkpoint_gives_a_clear_error(tmp_path):
         load_policy(policy)
 
 
+@pytest.mark.slow  # kills
 def test_resume_after_kill_9_loses_at_most_one_interval(tmp_path):
     out = tmp_path / "run"
     cmd = [sys.executable, "-m", "rallysim.cli", "train", "low", "--budget", "60000",
@@ -110,7 +111,7 @@ def test_resume_after_kill_9_loses_at_most_one_interval(tmp_path):
     assert steps == sorted(steps) and steps[0] == 512
 
 
-@pytest.mark.parametrize("stage", ["low", "high", "mono"])
+@pytest.mark.parametrize("stage", ["low", pytest.param("high", marks=pytest.mark.slow), "mono"])
 def test_every_stage_smoke_runs_and_exports_a_loadable_policy(tmp_path, stage):
     overrides = {**TINY, "budget": 1024 if stage != "high" else 256, "low_policy": "scripted"}
     if stage == "high":
@@ -144,6 +145,7 @@ def test_humanlike_low_level_trains_and_reports_its_errors(tmp_path):
         load_config("mono", None, {"player": "humanlike", "ppo.n_envs": 16})
 
 
+@pytest.mark.slow  # trains
 def test_humanlike_warm_start_clones_aimed_swing_with_dagger(tmp_path):
     """The HUMAN-LIKE warm start fits the actor to AimedSwing (then DAgger on its own states):
     its actions move toward the teacher's on fresh serves."""
@@ -183,6 +185,7 @@ def test_humanlike_warm_start_clones_aimed_swing_with_dagger(tmp_path):
                for r in rounds)
 
 
+@pytest.mark.slow  # trains
 def test_humanlike_high_level_trains_over_the_scripted_low_level(tmp_path):
     overrides = {**TINY, "budget": 256, "ppo.n_envs": 8, "ppo.n_steps": 32,
                  "ppo.batch_size": 128, "eval.episodes": 8, "player": "humanlike",

@@ -49,6 +49,7 @@ def _tiny_run(tmp_path, name: str) -> str:
     return sha256_file(tmp_path / name / "policy.safetensors")
 
 
+@pytest.mark.slow  # trains
 def test_the_faster_settings_train_bit_identical_weights(tmp_path, monkeypatch):
     """Warm start and PPO with foreach Adam and no distribution checks, then with Adam's
     per-tensor loop and the checks on: the same weights, bit for bit."""

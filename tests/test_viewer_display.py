@@ -214,6 +214,7 @@ def shuttle_in(img: np.ndarray, project: Projector) -> tuple[float, float] | Non
 
 
 # -- the tests ----------------------------------------------------------------------------------
+@pytest.mark.slow  # Xvfb
 @needs_x
 def test_play_window_shows_court_players_and_shuttle(display: str, tmp_path: Path) -> None:
     env = x_env(display)
@@ -250,6 +251,7 @@ def test_play_window_shows_court_players_and_shuttle(display: str, tmp_path: Pat
         stop(play)
 
 
+@pytest.mark.slow  # Xvfb
 @needs_x
 def test_play_humanlike_window_shows_both_3d_players(display: str, tmp_path: Path) -> None:
     """``rallysim play --player humanlike``: the 3-D rally in the window, from the HUMAN-LIKE
@@ -305,6 +307,7 @@ env.close()
 """
 
 
+@pytest.mark.slow  # Xvfb
 @needs_x
 def test_gym_make_human_opens_rallysims_viewer(display: str, tmp_path: Path) -> None:
     """``render_mode="human"`` through ``gymnasium.make`` is the env's own mode, drawn in the
