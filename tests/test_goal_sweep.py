@@ -21,8 +21,8 @@ def test_action_grid_spans_the_action_box():
 def test_fixed_goals_play_as_a_high_level_that_always_picks_them():
     """An array of per-rally goals is the same as a high level choosing that goal each turn,
     and the cost counts every low-level decision and every turn."""
-    lengths, decisions, turns = play_turns(np.full(6, 3.0), "scripted", 6, seed=4)
-    same = rally_lengths_turns(lambda obs: np.full(len(obs), 3.0), "scripted", 6, seed=4)
+    lengths, decisions, turns = play_turns(np.full(3, 3.0), "scripted", 3, seed=4)
+    same = rally_lengths_turns(lambda obs: np.full(len(obs), 3.0), "scripted", 3, seed=4)
     assert lengths.tolist() == same.tolist()
     # a rally lost after L hits has L + 1 turns, one capped at 50 hits ends on its 50th
     assert turns == int((lengths + (lengths < 50)).sum())
@@ -30,18 +30,19 @@ def test_fixed_goals_play_as_a_high_level_that_always_picks_them():
 
 
 def test_the_sweep_picks_the_goal_with_the_longest_rallies():
-    sweep = sweep_goals(SIMPLE, "scripted", 5, 4, seed=2)
-    assert len(sweep["actions"]) == 5 and sweep["rallies_per_goal"] == 4
+    sweep = sweep_goals(SIMPLE, "scripted", 5, 2, seed=2)
+    assert len(sweep["actions"]) == 5 and sweep["rallies_per_goal"] == 2
     means = np.array(sweep["mean_rally"])
     assert sweep["best_action"] == sweep["actions"][int(np.argmax(means))]
     assert sweep["best_mean_rally"] == means.max() > means.min()
     # each goal's mean is that of rallies played at it, on the sweep's own seed stream
-    goals = SIMPLE.goal.from_action(np.repeat(action_grid(5, 1), 4, axis=0))
-    lengths, decisions, turns = play_turns(goals, "scripted", 20, 2 + SWEEP_SEED_OFFSET)
-    assert np.allclose(lengths.reshape(5, 4).mean(axis=1), means)
+    goals = SIMPLE.goal.from_action(np.repeat(action_grid(5, 1), 2, axis=0))
+    lengths, decisions, turns = play_turns(goals, "scripted", 10, 2 + SWEEP_SEED_OFFSET)
+    assert np.allclose(lengths.reshape(5, 2).mean(axis=1), means)
     assert (sweep["decisions"], sweep["turns"]) == (decisions, turns)
 
 
+@pytest.mark.slow
 def test_the_sweep_takes_three_dimensional_goals():
     sweep = sweep_goals(HUMANLIKE, "scripted", 2, 1, seed=0)
     assert np.array(sweep["actions"]).shape == (8, 3) and len(sweep["mean_rally"]) == 8
@@ -52,6 +53,7 @@ def test_a_sweep_needs_two_points_and_one_rally():
         sweep_goals(SIMPLE, "scripted", 1, 4, seed=0)
 
 
+@pytest.mark.slow
 def test_the_high_stage_starts_at_the_swept_goal_and_counts_its_decisions(tmp_path):
     pytest.importorskip("stable_baselines3")
     from rallysim.train.config import load_config
