@@ -86,3 +86,21 @@ def test_simple_return_v1_with_uniform_goals_plays_v0():
         b, rb, tb, ub, _ = new.step(action)
         for x, y in ((a, b), (ra, rb), (ta, tb), (ua, ub)):
             np.testing.assert_array_equal(x, y)
+
+
+@pytest.mark.parametrize("method", ["HRL", "Random High-level", "Monolithic"])
+def test_the_site_home_table_is_the_committed_json(method):
+    cap50 = json.loads((DATA / "reproduce_default.json").read_text())
+    cap1000 = json.loads((DATA / "reproduce_seeds5_cap1000.json").read_text())
+    expected = [method, f"{cap50['paper']['table_vii'][method]['mean']:.2f}",
+                f"{cap50['methods'][method]['mean']['value']:.2f}",
+                f"{cap1000['methods'][method]['mean']['value']:.2f}"]
+    assert _row((ROOT / "docs" / "index.md").read_text(), method) == expected
+
+
+def test_the_performance_table_is_the_committed_json():
+    rows = {r["key"]: r for r in json.loads((DATA / "env_throughput.json").read_text())["rows"]}
+    text = (ROOT / "docs" / "performance.md").read_text()
+    for key in ("ours_256", "ours_64", "single_simple", "single_simple_python",
+                "single_humanlike", "single_humanlike_python", "single_pendulum"):
+        assert f"| {rows[key]['decisions_per_s']:,.0f} |" in text, key

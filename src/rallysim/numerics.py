@@ -145,4 +145,3 @@ def describe() -> dict[str, Any]:
 
         out["torch_cpu_capability"] = torch.backends.cpu.get_cpu_capability()
     return out
-

@@ -24,8 +24,8 @@ from rallysim.cli.common import (
 from rallysim.cli.paths import out_file
 
 # cooperative defaults (the paper's cap: rallysim.eval.rally_eval.PAPER_CAP). One evaluation
-# seed keeps a look at the shipped policies to seconds (three took 20-60 s, most of it the
-# rallies); each mean is printed with its 95 % interval, and --seeds 3 narrows it.
+# seed keeps a look at the shipped policies to seconds (docs/getting-started.md); each mean is
+# printed with its 95 % interval, and --seeds 3 narrows it.
 RALLIES, SEEDS, EPISODES, PAPER_CAP = 100, 1, 500, 50
 # evaluate --mode competitive: the defaults of its options (None on the parser, so that an
 # option given in cooperative mode is seen and refused)

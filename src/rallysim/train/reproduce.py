@@ -40,6 +40,7 @@ import numpy as np
 
 from rallysim.eval.rally_eval import PAPER_CAP
 from rallysim.train.progress import Heartbeat, say_stderr
+from rallysim.train.study_tables import number_cell
 
 PAPER_TABLE_VII = {
     "HRL": {"mean": 20.25, "capped": 13},
@@ -500,10 +501,6 @@ def losses_table(r: dict[str, Any]) -> list[str]:
     return lines
 
 
-def _number(value: float | None, digits: int) -> str:
-    return "—" if value is None else f"{value:.{digits}f}"
-
-
 def low_level_table(r: dict[str, Any]) -> list[str]:
     """Each seed's low level on fresh serves (deterministic policy)."""
     per_seed = r["low_level"]["per_seed"]
@@ -514,7 +511,7 @@ def low_level_table(r: dict[str, Any]) -> list[str]:
     for seed, low in zip(r["per_seed"], per_seed, strict=True):
         lines.append(f"| {seed} | {low['mean_reward']:.3f} | {low['hit_rate']:.3f} | "
                      f"{low['in_rate']:.3f} | {low['median_error']:.2f} m |"
-                     + (f" {_number(low['goal_correlation'], 3)} |" if follows else ""))
+                     + (f" {number_cell(low['goal_correlation'], 3)} |" if follows else ""))
     return lines
 
 

@@ -14,7 +14,8 @@ from typing import Any
 from rallysim.eval.stats import interval_cell
 
 
-def _number(value: float | None, digits: int = 3) -> str:
+def number_cell(value: float | None, digits: int = 3) -> str:
+    """A number as a table cell (``—`` where undefined)."""
     return "—" if value is None else f"{value:.{digits}f}"
 
 
@@ -79,7 +80,7 @@ def render_compete_study(result: dict[str, Any]) -> str:
         for m in [*s["snapshots"], {**s["champion_rating"], "champion": True}]:
             who = f"seed {s['seed']} {'champion' if m.get('champion') else 'snapshot'}"
             lines.append(f"| {who} | {m['turns']:,} | {m['rating']:.2f} | " + " | ".join(
-                _number(m["versus"][r]["point_win_rate"]) for r in rungs) + " |")
+                number_cell(m["versus"][r]["point_win_rate"]) for r in rungs) + " |")
     champions = [s["champion"] for s in result["seeds"]]
     index = [cp["players"].index(n) for n in [*rungs, *champions]]
     names = [*rungs, *(f"champion s{s['seed']}" for s in result["seeds"])]
@@ -111,7 +112,7 @@ def render_compete_summary(result: dict[str, Any]) -> str:
         + " | snapshot ratings rise | wall (min) |",
         "|---|" + "---|" * (len(opponents) + 2)]
     for s in result["seeds"]:
-        cells = [f"{ci_cell(s[f'vs_{n}'])} ({_number(s[f'rally_vs_{n}']['value'], 1)})"
+        cells = [f"{ci_cell(s[f'vs_{n}'])} ({number_cell(s[f'rally_vs_{n}']['value'], 1)})"
                  for n in opponents]
         lines.append(f"| {s['seed']} | " + " | ".join(cells)
                      + f" | {'yes' if s['ratings_monotonic'] else 'no'} | "
@@ -180,7 +181,7 @@ def render_low_curves(doc: dict[str, Any]) -> str:
     for m in doc["methods"].values():
         for s, points in m["seeds"].items():
             last = points[-1]
-            cells = " | ".join(_number(last[key], d) for key, _, d in LOW_CURVE_METRICS)
+            cells = " | ".join(number_cell(last[key], d) for key, _, d in LOW_CURVE_METRICS)
             lines.append(f"| {m['label']} | {s} | {cells} | {last['hit_rate']:.3f} |")
     return "\n".join(lines) + "\n"
 
