@@ -5,7 +5,7 @@ A low level returns some goals far better than others, and which ones depends on
 seed, and the numerics it trained under). An untrained high level aims every shot at the
 centre of the goal range, with a spread of about a third of it. Where the centre is a poor goal,
 every rally ends within a few hits, the returns carry little signal, and PPO can spend most of
-its budget finding the band of good goals (docs/results.md, "Why a high level climbed slowly").
+its budget finding the band of good goals (docs/research-log/reproduce.md, "Why a high level climbed slowly").
 The sweep plays ``rallies`` rallies at each of ``points`` evenly spaced goals per axis, both
 players holding that goal for the whole rally, and starts PPO's Gaussian at the goal with the
 longest mean rally, one grid step wide, so that its first rollouts are rallies inside the
