@@ -2,16 +2,16 @@
 goal becomes the untrained high level's mean action.
 
 A low level returns some goals far better than others, and which ones depends on the run (its
-seed, and the numerics it trained under). An untrained high level aims every shot at the
-centre of the goal range, with a spread of about a third of it. Where the centre is a poor goal,
-every rally ends within a few hits, the returns carry little signal, and PPO can spend most of
-its budget finding the band of good goals (docs/research-log/reproduce.md, "Why a high level climbed slowly").
-The sweep plays ``rallies`` rallies at each of ``points`` evenly spaced goals per axis, both
-players holding that goal for the whole rally, and starts PPO's Gaussian at the goal with the
-longest mean rally, one grid step wide, so that its first rollouts are rallies inside the
-band rather than misses around it. The sweep's rallies use the training seed's stream, not
-the evaluation's, and the low-level decisions they simulate count in the hierarchy's budget
-like the high stage's own.
+seed, and the numerics it trained under). An untrained high level aims every shot at the centre
+of the goal range, with a spread of about a third of it. Where the centre is a poor goal, every
+rally ends within a few hits, the returns carry little signal, and PPO can spend most of its
+budget finding the band of good goals (docs/research-log/reproduce.md, "Why a high level climbed
+slowly"). The sweep plays ``rallies`` rallies at each of ``points`` evenly spaced goals per
+axis, both players holding that goal for the whole rally, and starts PPO's Gaussian at the goal
+with the longest mean rally, one grid step wide, so that its first rollouts are rallies inside
+the band rather than misses around it. The sweep's rallies use the training seed's stream, not
+the evaluation's, and the low-level decisions they simulate count in the hierarchy's budget like
+the high stage's own.
 """
 
 from __future__ import annotations
