@@ -3,8 +3,8 @@
 The ```python blocks of a page are joined in order (a reader runs them in one session: later
 blocks use what earlier ones built) and run in a fresh interpreter, in a temporary folder,
 with every warning turned into an error. A page passes when that exits cleanly, prints
-nothing to stderr, and prints at least one number and no NaN. Pages that train, or need Ray,
-are in the slow tier.
+nothing to stderr, and prints at least one number and no NaN. Pages that train, need Ray or
+play whole rallies are in the slow tier.
 """
 
 from __future__ import annotations
@@ -22,9 +22,10 @@ DOCS = Path(__file__).resolve().parents[1] / "docs"
 PAGES: dict[str, tuple[bool, tuple[str, ...]]] = {
     "getting-started.md": (False, ()),
     "envs/simple-return.md": (False, ()),
-    "envs/rally.md": (False, ()),
-    "envs/humanlike.md": (False, ()),
-    "envs/competitive.md": (False, ()),
+    # the rally pages play whole rallies in a fresh interpreter: seconds each
+    "envs/rally.md": (True, ()),
+    "envs/humanlike.md": (True, ()),
+    "envs/competitive.md": (True, ()),
     "tutorials/pettingzoo-rally.md": (False, ()),
     "tutorials/sb3-low-level.md": (True, ("stable_baselines3",)),
     "tutorials/hierarchy.md": (True, ("stable_baselines3", "yaml")),
