@@ -78,8 +78,9 @@ def test_shipped_humanlike_low_rl_is_scored_like_the_clone(tmp_path):
     """``humanlike_low_rl`` (PPO from scratch on HumanLikeReturn-v0, the paper's reward, no
     teacher; docs/rl-alone.md): ``evaluate --low NAME --json`` scores it on fresh serves like
     the cloned one, the player read from the policy. It hits every serve but misses the target
-    velocity (on these 200 serves: 64.7 deg mean angle error, 81 % mean speed error; issue 15's
-    targets are 10 deg and 20 %); the high level trained over it keeps no rally going."""
+    velocity (on these 200 serves: 64.7 deg mean angle error, 76 % mean speed error, with the
+    CLI's one BLAS thread; the targets were 10 deg and 20 %); the high level trained over it
+    keeps no rally going."""
     path = tmp_path / "rl.json"
     # no --player: the policy's env id says it is a HUMAN-LIKE low level
     assert main(["evaluate", "--low", "humanlike_low_rl", "--high", "humanlike_high_rl",
@@ -90,7 +91,7 @@ def test_shipped_humanlike_low_rl_is_scored_like_the_clone(tmp_path):
     assert data["policies"]["low"] == "humanlike_low_rl" and r["episodes"] == 200
     assert r["hit_rate"] == 1.0
     assert r["mean_angle_error"] == pytest.approx(64.74, abs=0.5)
-    assert r["mean_abs_speed_error"] == pytest.approx(0.806, abs=0.01)
+    assert r["mean_abs_speed_error"] == pytest.approx(0.761, abs=0.01)
     # the high level trained over it (humanlike_high_rl) gets no rally going: each ends at
     # about one hit (1.10 over 300 rallies), against 33.2 for the cloned pair
     assert data["policies"]["high"] == "humanlike_high_rl"
