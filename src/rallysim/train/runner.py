@@ -212,9 +212,9 @@ def _train_stage(config: TrainConfig, out: Path, resume: bool, progress: bool,
 
 def _start_line(config: TrainConfig, start: dict[str, Any]) -> str:
     """The goal sweep in one progress line."""
-    from rallysim.players import HUMANLIKE, SIMPLE
+    from rallysim.players import get_player
 
-    player = SIMPLE if config.player == "simple" else HUMANLIKE
+    player = get_player(config.player)
     goal = np.round(player.goal.from_action(np.asarray(start["best_action"])), 2).tolist()
     return (f"goal sweep over {len(start['actions'])} goals x {start['rallies_per_goal']} "
             f"rallies ({start['decisions']:,} decisions): best goal {goal} {player.goal.unit}, "

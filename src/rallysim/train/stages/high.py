@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
-from rallysim.players import HUMANLIKE, SIMPLE
+from rallysim.players import HUMANLIKE, SIMPLE, get_player
 from rallysim.policies.callables import Composed
 from rallysim.policies.registry import resolve
 from rallysim.policies.types import Policy
@@ -110,7 +110,7 @@ class HighStage(Stage):
         from rallysim.core.tasks.rally import RallyConfig
         from rallysim.train.goal_sweep import grid_step, start_at, sweep_goals
 
-        player = SIMPLE if config.player == "simple" else HUMANLIKE
+        player = get_player(config.player)
         low = resolve(config.low_policy, "rally_low", player)
         sweep = sweep_goals(player, low, config.goal_sweep_points, config.goal_sweep,
                             config.seed, RallyConfig(shuttle=config.shuttle))
