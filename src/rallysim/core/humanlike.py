@@ -33,7 +33,7 @@ import mujoco
 import numpy as np
 
 from rallysim.assets import asset_path
-from rallysim.core import native, one_humanlike
+from rallysim.core import humanlike_step, native, one_humanlike
 from rallysim.core.bodies import MjDataViews
 from rallysim.core.lanes import ARRAYS, ArrayLanes, Ops, ScalarLanes
 from rallysim.core.rules import FORWARD
@@ -140,6 +140,9 @@ class HumanLikeBodies(MjDataViews):
         self._constants = np.concatenate([self.lo, self.hi, self._joint_max_rate, [
             dt, 2.0 * BRAKE_SHARE, MAX_JOINT_SPEED, *self._hips_lo, *self._hips_hi,
             self._forward_one, self.hips_height, ACTIVE_SET_ROUNDS]])  # one_humanlike's
+        self._step_constants = np.concatenate([self.lo, self.hi, self._joint_max_rate, [
+            dt, 2.0 * BRAKE_SHARE, MAX_JOINT_SPEED, *self._hips_lo, *self._hips_hi,
+            self.hips_height, ACTIVE_SET_ROUNDS]])  # humanlike_step's
         self._dirty = True  # kinematics must be recomputed before they are read
         self._sync_mocap()
         self._sync()
@@ -229,17 +232,18 @@ class HumanLikeBodies(MjDataViews):
                     self.hips, self._hips_step, self.hips_velocity, self.base_moved,
                     self._mocap, self._constants)
                 return
+        if not self._one:
+            humanlike_step.compiled_step()(
+                self.model._address, self.data._address, self._mass, self._m_index, self.qpos,
+                self.qvel, self.torque, self._bias, self.target, self.torque_limit, self._side,
+                self._face0, self._face_pos, self.hips, self._hips_step, self.hips_velocity,
+                self.base_moved, self._mocap, self.forward, self._step_constants)
+            return
         np.copyto(self._face0, self._face_pos)
-        if self._one:
-            self._servo_one()
-            mujoco.mj_step2(self.model, self.data)
-            self._joint_stops_one()
-            self._move_hips_one()
-        else:
-            self._servo()
-            mujoco.mj_step2(self.model, self.data)
-            self._joint_stops()
-            self._move_hips()
+        self._servo_one()
+        mujoco.mj_step2(self.model, self.data)
+        self._joint_stops_one()
+        self._move_hips_one()
         mujoco.mj_step1(self.model, self.data)
 
     # -- the servo -----------------------------------------------------------------------------

@@ -1,0 +1,201 @@
+"""The HUMAN-LIKE players' physics step, written once and compiled by Numba: one loop over every
+game and player of the one batched model (``HumanLikeBodies``) around MuJoCo's step, for any
+N x P (``gym.make`` at N = P = 1, a batch of thousands, two-player rallies).
+
+One step: each player's servo torques (``_servo``: the desired accelerations, the deadbeat
+torques, the active set of saturated joints), MuJoCo's ``mj_step2`` of the whole model, each
+player's joint stops and hips motion, then ``mj_step1`` of the whole model (the split leaves the
+kinematics, inertia and bias forces of the new state for the rulebook and the next servo solve;
+see ``HumanLikeBodies.physics_step``). Players are independent, so env i of a batch seeded s
+replays a single env seeded s + i bit for bit.
+
+The arithmetic is NumPy's for these formulas, so results do not depend on the batch size:
+``np_min``/``np_max`` are ``np.minimum``/``np.maximum`` (NaN propagates, the second argument
+wins a tie, which decides signed zeros); ``row_sums8`` is NumPy's pairwise sum of a row of 8;
+the solve is LAPACK's ``dgesv`` from the library behind NumPy's ``linalg.solve``, handed the
+matrix in the layout NumPy hands it (NaN for a singular system, as NumPy's gufunc gives).
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from collections.abc import Callable
+
+import numpy as np
+
+from rallysim.core import native
+
+# ``constants`` layout (``HumanLikeBodies._constants``): lo, hi, rate (8 each), then these
+DT, BRAKE, MAX_SPEED, HIPS_LO, HIPS_HI, HIPS_HEIGHT, ROUNDS = 24, 25, 26, 27, 29, 31, 32
+N_CONSTANTS = 33
+
+
+def np_min(a: float, b: float) -> float:
+    """``np.minimum`` of two numbers: NaN if either is NaN, ``b`` on a tie."""
+    return a if a < b or a != a else b
+
+
+def np_max(a: float, b: float) -> float:
+    """``np.maximum`` of two numbers: NaN if either is NaN, ``b`` on a tie."""
+    return a if a > b or a != a else b
+
+
+def beyond(tau: float, lim: float) -> int:
+    """+1 where ``tau`` is above ``lim``, -1 where it is below -``lim``, else 0."""
+    return int(tau > lim) - int(tau < -lim)
+
+
+def row_sums8(p: np.ndarray, out: np.ndarray) -> None:
+    """``np.add.reduce(p, axis=-1)`` of an (8, 8) array: NumPy's pairwise sum of 8 terms,
+    added to the reduction's +0.0 start."""
+    for i in range(8):
+        out[i] = 0.0 + (((p[i, 0] + p[i, 1]) + (p[i, 2] + p[i, 3]))
+                        + ((p[i, 4] + p[i, 5]) + (p[i, 6] + p[i, 7])))
+
+
+def _solve_with(dgesv: Callable) -> Callable:
+    """``solve(A, r, u, a, ints, ipiv)``: u = A^-1 r for an (8, 8) A by ``dgesv`` on A copied
+    into ``a`` in Fortran order, as NumPy's ``linalg.solve`` copies it; ``ints`` (5) and
+    ``ipiv`` (8) int64 are scratch."""
+
+    def solve(A, r, u, a, ints, ipiv):
+        for i in range(8):
+            for j in range(8):
+                a[j * 8 + i] = A[i, j]
+            u[i] = r[i]
+        ints[0], ints[1], ints[2], ints[3], ints[4] = 8, 1, 8, 8, 0  # n, nrhs, lda, ldb, info
+        dgesv(ints[0:].ctypes.data, ints[1:].ctypes.data, a.ctypes.data, ints[2:].ctypes.data,
+              ipiv.ctypes.data, u.ctypes.data, ints[3:].ctypes.data, ints[4:].ctypes.data)
+        if ints[4] != 0:  # a singular system: NumPy's gufunc gives NaN
+            for i in range(8):
+                u[i] = np.nan
+
+    return solve
+
+
+def _physics_step_with(mj_step1: Callable, mj_step2: Callable, solve: Callable,
+                       row_sums: Callable, np_min: Callable, np_max: Callable,
+                       beyond: Callable) -> Callable:
+    """``physics_step(model, data, <the bodies' arrays>, forward, k)`` over all N x P
+    players (see the module docstring; the why of each formula is in
+    ``rallysim.core.humanlike``'s docstring)."""
+
+    def physics_step(model, data, mass, m_index, qpos, qvel, ctrl, bias, target, torque_limit,
+                     side_a, face0, face, hips, hips_step, hips_velocity, moved, mocap,
+                     forward, k):
+        n_envs, n_players = qpos.shape[0], qpos.shape[1]
+        inv_dt = 1.0 / k[DT]
+        rounds = int(k[ROUNDS])
+        M, products, masked, A = (np.empty((8, 8)), np.empty((8, 8)), np.empty((8, 8)),
+                                  np.empty((8, 8)))
+        lim, acc, tau, bound, r, u = (np.empty(8), np.empty(8), np.empty(8), np.empty(8),
+                                      np.empty(8), np.empty(8))
+        side, new = np.empty(8, np.int64), np.empty(8, np.int64)
+        held = np.empty(8, np.bool_)
+        a, ints, ipiv = np.empty(64), np.empty(5, np.int64), np.empty(8, np.int64)
+        for e in range(n_envs):
+            for p in range(n_players):
+                for i in range(3):
+                    face0[e, p, i] = face[e, p, i]
+                # -- the servo: desired accelerations, then the torques within the limits
+                for i in range(8):
+                    for j in range(8):
+                        M[i, j] = mass[m_index[e, p, i, j]]
+                for i in range(8):
+                    lim[i] = torque_limit[e, p, i]
+                    err = target[e, p, i] - qpos[e, p, i]
+                    size = abs(err)
+                    speed = math.sqrt(k[BRAKE] * lim[i] / M[i, i] * size)
+                    speed = np_min(speed, size * inv_dt)
+                    speed = np_min(speed, k[16 + i])
+                    acc[i] = (math.copysign(speed, err) - qvel[e, p, i]) * inv_dt
+                for i in range(8):
+                    for j in range(8):
+                        products[i, j] = M[i, j] * acc[j]
+                row_sums(products, tau)
+                saturated = False
+                for i in range(8):
+                    tau[i] = tau[i] + bias[e, p, i]
+                    old = side_a[e, p, i]
+                    side[i] = old if old != 0 else beyond(tau[i], lim[i])
+                    saturated = saturated or side[i] != 0
+                if saturated:  # rounds of the active set until the saturated set settles
+                    for _ in range(rounds):
+                        for j in range(8):
+                            held[j] = side[j] != 0
+                            bound[j] = float(side[j]) * lim[j]
+                        for i in range(8):
+                            for j in range(8):
+                                masked[i, j] = M[i, j] * (0.0 if held[j] else acc[j])
+                                A[i, j] = M[i, j] if held[j] else (-1.0 if i == j else -0.0)
+                        row_sums(masked, r)
+                        for i in range(8):
+                            r[i] = (bound[i] - bias[e, p, i]) - r[i]
+                        solve(A, r, u, a, ints, ipiv)
+                        same = True
+                        for i in range(8):
+                            if held[i]:
+                                tau[i] = bound[i]
+                                # KKT: a held joint must fall short of its desired
+                                # acceleration in the direction it pushes (else it is
+                                # released), unless its limit is zero (both bounds at once)
+                                keep = side[i] * (u[i] - acc[i]) <= 0.0 or lim[i] == 0.0
+                                new[i] = side[i] if keep else 0
+                            else:
+                                tau[i] = u[i]
+                                new[i] = beyond(u[i], lim[i])
+                            same = same and new[i] == side[i]
+                        for i in range(8):
+                            side[i] = new[i]
+                        if same:
+                            break
+                for i in range(8):
+                    side_a[e, p, i] = side[i]
+                    ctrl[e, p, i] = np_min(np_max(tau[i], -lim[i]), lim[i])
+        mj_step2(model, data)
+        top = k[MAX_SPEED]
+        for e in range(n_envs):
+            for p in range(n_players):
+                # -- joint stops: a joint past one is put back and stopped; the speed ceiling
+                stopped = False
+                for i in range(8):
+                    x = qpos[e, p, i]
+                    if x > k[8 + i] or x < k[i]:
+                        stopped = True
+                        qvel[e, p, i] = 0.0
+                if stopped:
+                    for i in range(8):
+                        qpos[e, p, i] = np_min(np_max(qpos[e, p, i], k[i]), k[8 + i])
+                for i in range(8):
+                    qvel[e, p, i] = np_min(np_max(qvel[e, p, i], -top), top)
+                # -- the hips, clipped into their range; the mocap body follows (world frame)
+                f = forward[e, p]
+                m = False
+                for i in range(2):
+                    x = hips[e, p, i]
+                    x1 = np_min(np_max(x + hips_step[e, p, i], k[HIPS_LO + i]), k[HIPS_HI + i])
+                    v = (x1 - x) * inv_dt
+                    hips_velocity[e, p, i] = v
+                    m = m or v != 0.0
+                    hips[e, p, i] = x1
+                    mocap[e, p, i] = x1 * f
+                moved[e, p] = m
+                mocap[e, p, 2] = k[HIPS_HEIGHT]
+        mj_step1(model, data)
+
+    return physics_step
+
+
+@functools.cache
+def compiled_step() -> Callable:
+    """``_physics_step_with`` compiled by Numba, made once per process, calling MuJoCo's
+    ``mj_step1``/``mj_step2`` and NumPy's LAPACK ``dgesv`` (obtained here, and only here,
+    through ``rallysim.core.native``)."""
+    numba = native.numba_module()
+    step1, step2 = native.mujoco_functions("mj_step1", "mj_step2")
+    dgesv = native.numpy_dgesv()
+    jit = numba.njit
+    step = _physics_step_with(step1, step2, jit(_solve_with(dgesv)), jit(row_sums8), jit(np_min),
+                              jit(np_max), jit(beyond))
+    return jit(error_model="numpy")(step)  # NumPy's: a division by zero gives inf, not an error
