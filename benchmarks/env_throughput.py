@@ -613,8 +613,6 @@ def throughput_rows(budget: Budget) -> list[Row]:
                PHYSICS_STEPS_PER_DECISION, "python"),
         Single("single_humanlike", f"rallysim gym.make({HUMANLIKE_ID!r}), random actions",
                HUMANLIKE_ID, PHYSICS_STEPS_PER_DECISION),
-        Single("single_humanlike_python", f"the same, {native.KERNEL_VARIABLE}=python",
-               HUMANLIKE_ID, PHYSICS_STEPS_PER_DECISION, "python"),
         Single("single_pendulum", f"(b) gym.make({PENDULUM_ID!r}), random actions",
                PENDULUM_ID),
     ], budget)

@@ -1,4 +1,4 @@
-"""What the tests of the compiled kernels of one game (``tests/test_one_game.py``,
+"""What the tests of the compiled steps of one game (``tests/test_one_game.py``,
 ``tests/test_one_humanlike.py``) share."""
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from rallysim.core import native, one_game, one_humanlike
+from rallysim.core import native, one_game
 
 
 def needs_compiled(kernel: native.Kernel) -> pytest.MarkDecorator:
@@ -21,7 +21,6 @@ def needs_compiled(kernel: native.Kernel) -> pytest.MarkDecorator:
 
 
 NEEDS_COMPILED_SIMPLE = needs_compiled(one_game.Compiled)
-NEEDS_COMPILED_HUMANLIKE = needs_compiled(one_humanlike.Compiled)
 
 
 def same_bits(x: Any, y: Any) -> bool:

@@ -18,8 +18,9 @@ push with their full strength. Strength zero gives exactly zero torque. A plain 
 cannot do this at the 0.02 s step: the spine and chest turn about the same axis, and the upper
 arm's twist drives a tiny inertia, so a clamped stiff PD chatters and a decoupled one diverges.
 
-One ``mj_step`` advances the whole batch; joint limits are hard stops applied after it
-(constraints are off, like the SIMPLE arm's). Own frames (docs/reference.md §1): every player
+One MuJoCo step advances the whole batch; joint limits are hard stops applied after it
+(constraints are off, like the SIMPLE arm's). The step of every player, for any N x P, is one
+compiled loop (``rallysim.core.humanlike_step``). Own frames (docs/reference.md §1): every player
 stands at x < 0 facing +x; player 1's copies are attached turned 180 degrees about z, so one joint
 angle means one pose for either player.
 """
@@ -33,15 +34,10 @@ import mujoco
 import numpy as np
 
 from rallysim.assets import asset_path
-from rallysim.core import humanlike_step, native, one_humanlike
+from rallysim.core import humanlike_step
 from rallysim.core.bodies import MjDataViews
 from rallysim.core.lanes import ARRAYS, ArrayLanes, Ops, ScalarLanes
 from rallysim.core.rules import FORWARD
-
-try:  # LAPACK's gesv as NumPy's own linalg.solve calls it, without that function's wrapper
-    from numpy.linalg import _umath_linalg
-except ImportError:  # pragma: no cover - a NumPy that moved it
-    _umath_linalg = None
 
 XML = "humanlike_player.xml"
 # Hinges in the model's order, which is also the action's order of target rotations
@@ -70,29 +66,16 @@ class HumanLikeBodies(MjDataViews):
 
     Actions (N, P, 15) in [-1, 1]: hips velocity x, y = ``max_hips_speed`` * a (own frame);
     target angles spanning each joint's range; strength = (a + 1) / 2 of each group's maximum
-    torque (``group_max_torque``, read from the MJCF's motor ranges).
-
-    ``kernel`` (``rallysim.core.native``: ``auto``, ``python``, ``compiled``; None:
-    ``native.KERNEL``) chooses what steps one player (N = P = 1): ``rallysim.core.one_humanlike``
-    compiled or the ``_one`` methods on Python floats, with the same results. A batch runs its
-    array code whatever it says."""
+    torque (``group_max_torque``, read from the MJCF's motor ranges)."""
 
     hips_height = 0.9
     max_hips_speed = 5.0  # m/s, a badminton player's lunge; the SIMPLE base's speed
     hips_range = np.array([[-6.5, -0.5], [-2.8, 2.8]])  # own-frame x and y of the hips centre
 
-    def __init__(self, n_envs: int, n_players: int = 1, dt: float = 0.02,
-                 kernel: str | None = None) -> None:
+    def __init__(self, n_envs: int, n_players: int = 1, dt: float = 0.02) -> None:
         if n_envs < 1 or n_players not in (1, 2):
             raise ValueError(f"need n_envs >= 1 and n_players in (1, 2), got {n_envs}, {n_players}")
         self.n_envs, self.n_players, self.dt = n_envs, n_players, dt
-        # one player's physics step (N = P = 1 only): the name asked for
-        # (``rallysim.core.native``), resolved in each process at its first step, as for one
-        # SIMPLE game; a subclass may change the motion, so it keeps its own Python methods
-        self.kernel_asked = native.checked_kernel_name(kernel)
-        self.fits_compiled_step = (n_envs, n_players) == (1, 1) and type(self) is HumanLikeBodies
-        if self.kernel_asked == "compiled" and self.fits_compiled_step:
-            one_humanlike.Compiled.resolve("compiled")  # refused here, not at the first step
         self.model = build_humanlike_world(n_envs, n_players, dt)
         self.data = mujoco.MjData(self.model)
         m, shape = self.model, (n_envs, n_players)
@@ -119,44 +102,19 @@ class HumanLikeBodies(MjDataViews):
         self.target = np.zeros((*shape, N_JOINTS))
         self.torque_limit = np.zeros((*shape, N_JOINTS))
         self._hips_step = np.zeros((*shape, 2))
-        self._hips_new = np.zeros((*shape, 2))
         self._face0 = np.zeros((*shape, 3))  # world face centre at the last step's start
-        self._inertia = np.zeros((*shape, N_JOINTS, N_JOINTS))
-        self._neg_eye = -np.eye(N_JOINTS)
-        self._hips_lo, self._hips_hi = self.hips_range[:, 0].copy(), self.hips_range[:, 1].copy()
-        self._hips_lo_list, self._hips_hi_list = self._hips_lo.tolist(), self._hips_hi.tolist()
-        self._lo_list, self._hi_list = self.lo.tolist(), self.hi.tolist()
         self._forward_one = float(self.forward.flat[0])
-        self._diag_i = np.arange(N_JOINTS)
         self._side = np.zeros((*shape, N_JOINTS), dtype=np.int8)  # servos saturated at +-limit
-        # One player (N = P = 1) steps on Python floats (the ``_one`` methods): each NumPy call
-        # costs about as much as the whole arithmetic on its 8 values.
-        self._one = shape == (1, 1)
-        self._diag_k = [int(k) for k in self._m_index[0, 0, self._diag_i, self._diag_i]]
-        self._rate = self._joint_max_rate.tolist()
-        self._joint_group = JOINT_GROUP.tolist()
-        self._joint_max_list = self._joint_max_torque.tolist()
-        self._sets: dict[tuple[int, ...], tuple] = {}  # _set_arrays of each saturated set
+        hips_lo, hips_hi = self.hips_range[:, 0], self.hips_range[:, 1]
         self._constants = np.concatenate([self.lo, self.hi, self._joint_max_rate, [
-            dt, 2.0 * BRAKE_SHARE, MAX_JOINT_SPEED, *self._hips_lo, *self._hips_hi,
-            self._forward_one, self.hips_height, ACTIVE_SET_ROUNDS]])  # one_humanlike's
-        self._step_constants = np.concatenate([self.lo, self.hi, self._joint_max_rate, [
-            dt, 2.0 * BRAKE_SHARE, MAX_JOINT_SPEED, *self._hips_lo, *self._hips_hi,
-            self.hips_height, ACTIVE_SET_ROUNDS]])  # humanlike_step's
+            dt, 2.0 * BRAKE_SHARE, MAX_JOINT_SPEED, *hips_lo, *hips_hi, self.hips_height,
+            ACTIVE_SET_ROUNDS]])  # humanlike_step's
         self._dirty = True  # kinematics must be recomputed before they are read
         self._sync_mocap()
         self._sync()
 
     _views = ("qpos", "qvel", "torque", "_bias", "_mass", "_mocap", "_face_pos", "_face_mat",
-              "base_x", "_flat_qpos", "_flat_qvel", "_flat_ctrl", "_flat_bias")
-
-    @property
-    def kernel(self) -> str:
-        """What runs one player's physics steps in this process: "compiled" or "python" (a
-        batch, or a subclass: "python", whatever ``kernel`` asked for)."""
-        compiled = (self.fits_compiled_step
-                    and one_humanlike.Compiled.resolve(self.kernel_asked) is not None)
-        return "compiled" if compiled else "python"
+              "base_x")
 
     def _bind_views(self) -> None:
         """Views into MuJoCo's memory (players are env-major and contiguous in every array),
@@ -171,9 +129,6 @@ class HumanLikeBodies(MjDataViews):
         self._face_pos = d.site_xpos.reshape((*shape, 3))  # world frame
         self._face_mat = d.site_xmat.reshape((*shape, 3, 3))
         self.base_x = self.hips[..., 0]
-        # flat views (all players' values in a row) for the one-player path
-        self._flat_qpos, self._flat_qvel, self._flat_ctrl = d.qpos, d.qvel, d.ctrl
-        self._flat_bias = d.qfrc_bias
 
     # -- state ---------------------------------------------------------------------------------
     def reset(self, envs: np.ndarray, base_x: np.ndarray, pose: Any = 0.0,
@@ -200,15 +155,6 @@ class HumanLikeBodies(MjDataViews):
 
     def set_actions(self, actions: np.ndarray) -> None:
         """Hold ``actions`` (N, P, 15), already clipped to [-1, 1], for the next physics steps."""
-        if self._one:  # the same operations on Python floats
-            a = actions.ravel().tolist()
-            step = self.max_hips_speed * self.dt
-            self._hips_step[0, 0] = a[0] * step, a[1] * step
-            self.target[0, 0] = [lo + (0.5 * (x + 1.0)) * (hi - lo) for x, lo, hi in
-                                 zip(a[TARGET], self._lo_list, self._hi_list, strict=True)]
-            self.torque_limit[0, 0] = [(0.5 * (a[STRENGTH.start + g] + 1.0)) * m for g, m in
-                                       zip(self._joint_group, self._joint_max_list, strict=True)]
-            return
         np.multiply(actions[..., MOVE], self.max_hips_speed * self.dt, out=self._hips_step)
         frac = 0.5 * (actions[..., TARGET] + 1.0)
         np.add(self.lo, frac * (self.hi - self.lo), out=self.target)
@@ -222,194 +168,11 @@ class HumanLikeBodies(MjDataViews):
         ``mj_step``) so that afterwards the kinematics, inertia and bias forces describe the new
         state: the rulebook reads the face there, and the next servo solve needs them."""
         self._sync()
-        if self.fits_compiled_step:
-            compiled = one_humanlike.Compiled.resolve(self.kernel_asked)
-            if compiled is not None:
-                compiled.physics_step(
-                    self.model._address, self.data._address, self._mass, self._m_index,
-                    self._flat_qpos, self._flat_qvel, self._flat_ctrl, self._flat_bias,
-                    self.target, self.torque_limit, self._side, self._face0, self._face_pos,
-                    self.hips, self._hips_step, self.hips_velocity, self.base_moved,
-                    self._mocap, self._constants)
-                return
-        if not self._one:
-            humanlike_step.compiled_step()(
-                self.model._address, self.data._address, self._mass, self._m_index, self.qpos,
-                self.qvel, self.torque, self._bias, self.target, self.torque_limit, self._side,
-                self._face0, self._face_pos, self.hips, self._hips_step, self.hips_velocity,
-                self.base_moved, self._mocap, self.forward, self._step_constants)
-            return
-        np.copyto(self._face0, self._face_pos)
-        self._servo_one()
-        mujoco.mj_step2(self.model, self.data)
-        self._joint_stops_one()
-        self._move_hips_one()
-        mujoco.mj_step1(self.model, self.data)
-
-    # -- the servo -----------------------------------------------------------------------------
-    def _servo(self) -> None:
-        """Write the servo torques for this step to MuJoCo's ctrl (see the module docstring)."""
-        M = np.take(self._mass, self._m_index, out=self._inertia)
-        lim, neg, dt = self.torque_limit, -self.torque_limit, self.dt
-        e = self.target - self.qpos
-        size = np.abs(e)
-        # Desired speed: reach the target this step if possible, else as fast as the rate cap
-        # and the braking distance allow (stopping from v at deceleration a takes v^2 / 2a).
-        diag = M[..., self._diag_i, self._diag_i]
-        speed = np.sqrt((2.0 * BRAKE_SHARE) * lim / diag * size)
-        np.minimum(speed, size * (1.0 / dt), out=speed)
-        np.minimum(speed, self._joint_max_rate, out=speed)
-        acc = (np.copysign(speed, e) - self.qvel) * (1.0 / dt)  # desired accelerations
-        tau = _matvec(M, acc) + self._bias
-        # Saturated joints (+1 at +limit, -1 at -limit): those of the last step (a warm start:
-        # the set rarely changes from one step to the next), and among the others those the
-        # unconstrained torques would push past their limit.
-        side = np.where(self._side != 0, self._side, _beyond(tau, lim, neg))
-        if np.count_nonzero(side):
-            self._saturate(M, acc, tau, side, neg)
-        self._side = side
-        np.maximum(tau, neg, out=tau)
-        np.minimum(tau, lim, out=self.torque)
-
-    def _saturate(self, M: np.ndarray, acc: np.ndarray, tau: np.ndarray, side: np.ndarray,
-                  neg: np.ndarray) -> None:
-        """Torques within the limits that bring the accelerations closest to ``acc`` in the
-        inertia metric (a box-constrained least squares, solved by an active set): free joints
-        reach their desired acceleration; saturated ones push with +-limit and fall short.
-
-        Given the saturated set, the rows of M a + bias = tau have as unknowns the saturated
-        joints' accelerations and the free joints' torques: one 8 x 8 linear solve per player
-        and round. Rounds after the first revisit only the players whose set changed. Writes
-        ``tau`` and ``side`` (N, P, 8) in place; ``neg`` is -limit."""
-        flat = (-1, N_JOINTS)
-        M, acc = M.reshape(-1, N_JOINTS, N_JOINTS), acc.reshape(flat)
-        lim, bias = self.torque_limit.reshape(flat), self._bias.reshape(flat)
-        neg = neg.reshape(flat)
-        zero = lim == 0.0
-        tau, side = tau.reshape(flat), side.reshape(flat)  # views: written through
-        arrays = (M, acc, lim, neg, zero, bias, side)
-        todo = np.flatnonzero(_as_rows(side) != 0)
-        for _ in range(ACTIVE_SET_ROUNDS):
-            every = len(todo) == len(acc)  # then the arrays themselves: nothing to gather
-            t, s = _active_set_round(*(arrays if every else [a[todo] for a in arrays]),
-                                     self._neg_eye)
-            changed = _as_rows(s) != _as_rows(side if every else side[todo])
-            rows = slice(None) if every else todo
-            tau[rows], side[rows] = t, s
-            todo = todo[changed]
-            if not len(todo):
-                break
-
-    # -- one player on Python floats -----------------------------------------------------------
-    # The same operations as ``_servo``, ``_saturate``, ``_joint_stops`` and ``_move_hips`` in
-    # the same order, so the results are bit-identical: np.minimum(a, b) is ``a if a < b else
-    # b`` and np.maximum(a, b) ``a if a > b else b`` (either gives b on a tie, so signed zeros
-    # come out as NumPy's). The 8 x 8 products and their row sums (NumPy's pairwise order) and
-    # LAPACK's solve stay NumPy calls on the player's block.
-    def _servo_one(self) -> None:
-        """``_servo`` for one player."""
-        M = self._mass[self._m_index[0, 0]]  # np.take's values, with less overhead
-        mass = self._mass.tolist()
-        lim_a = self.torque_limit[0, 0]
-        lim, target = lim_a.tolist(), self.target[0, 0].tolist()
-        q, w = self._flat_qpos.tolist(), self._flat_qvel.tolist()
-        rate, diag = self._rate, self._diag_k
-        inv_dt, brake = 1.0 / self.dt, 2.0 * BRAKE_SHARE
-        acc = []
-        for i in range(N_JOINTS):
-            e = target[i] - q[i]
-            size = abs(e)
-            speed = math.sqrt(brake * lim[i] / mass[diag[i]] * size)
-            cap = size * inv_dt
-            speed = speed if speed < cap else cap
-            cap = rate[i]
-            speed = speed if speed < cap else cap
-            acc.append((math.copysign(speed, e) - w[i]) * inv_dt)
-        products = M * acc  # _matvec's, whose row sums (with held columns zeroed) recur below
-        tau = (np.add.reduce(products, axis=-1) + self._flat_bias).tolist()
-        side = [old if old else (t > m) - (t < -m)
-                for old, t, m in zip(self._side[0, 0].tolist(), tau, lim, strict=True)]
-        if any(side):
-            tau, side = self._saturate_one(M, products, acc, side, lim, lim_a)
-        self._side[0, 0] = side
-        self._flat_ctrl[:] = [_np_min(_np_max(t, -m), m) for t, m in zip(tau, lim, strict=True)]
-
-    def _saturate_one(self, M: np.ndarray, products: np.ndarray, acc: list[float],
-                      side: list[int], lim: list[float], lim_a: np.ndarray
-                      ) -> tuple[list[float], list[int]]:
-        """``_saturate`` for one player: rounds of ``_active_set_round`` until the saturated
-        set settles; the torques and set of the last round. The row sums of M a with the held
-        joints' accelerations zeroed are those of ``products`` (M a) with the held columns
-        zeroed: the same pairwise sums, whose nonzero partial sums do not depend on the sign
-        of a zero term, and a zero total is +0.0 either way (the reduction starts from
-        +0.0)."""
-        bias, sets = self._flat_bias, self._sets
-        for _ in range(ACTIVE_SET_ROUNDS):
-            key = tuple(side)
-            arrays = sets.get(key)
-            if arrays is None:
-                arrays = sets[key] = _set_arrays(key)
-            held, held_mask, free, side_f = arrays
-            bound = side_f * lim_a
-            r = (bound - bias) - np.add.reduce(products * free, axis=-1)
-            u = _solve(np.where(held_mask, M, self._neg_eye), r).tolist()
-            new = [(s if s * (x - a) <= 0.0 or m == 0.0 else 0) if h else (x > m) - (x < -m)
-                   for h, s, x, a, m in zip(held, side, u, acc, lim, strict=True)]
-            if new == side:
-                break
-            side = new
-        tau = [b if h else x for h, b, x in zip(held, bound.tolist(), u, strict=True)]
-        return tau, new
-
-    def _joint_stops_one(self) -> None:
-        """``_joint_stops`` for one player."""
-        q, w = self._flat_qpos.tolist(), self._flat_qvel.tolist()
-        lo, hi = self._lo_list, self._hi_list
-        over = [x > h or x < lo_ for x, lo_, h in zip(q, lo, hi, strict=True)]
-        stopped = any(over)
-        if stopped:
-            self._flat_qpos[:] = [_np_min(_np_max(x, lo_), h)
-                                  for x, lo_, h in zip(q, lo, hi, strict=True)]
-            w = [0.0 if o else v for o, v in zip(over, w, strict=True)]
-        if stopped or max(w) > MAX_JOINT_SPEED or min(w) < -MAX_JOINT_SPEED:
-            self._flat_qvel[:] = [_np_min(_np_max(v, -MAX_JOINT_SPEED), MAX_JOINT_SPEED)
-                                  for v in w]
-
-    def _move_hips_one(self) -> None:
-        """``_move_hips`` for one player."""
-        (x, y), (sx, sy) = self.hips[0, 0].tolist(), self._hips_step[0, 0].tolist()
-        (xlo, ylo), (xhi, yhi) = self._hips_lo_list, self._hips_hi_list
-        nx, ny = _np_min(_np_max(x + sx, xlo), xhi), _np_min(_np_max(y + sy, ylo), yhi)
-        inv_dt = 1.0 / self.dt
-        vx, vy = (nx - x) * inv_dt, (ny - y) * inv_dt
-        self.hips_velocity[0, 0] = vx, vy
-        self.base_moved[0, 0] = vx != 0.0 or vy != 0.0
-        self.hips[0, 0] = nx, ny
-        f = self._forward_one
-        self._mocap[0, 0] = nx * f, ny * f, self.hips_height
-
-    def _joint_stops(self) -> None:
-        """Hard stops at the joint limits (a joint past one is put back and stopped) and the
-        speed ceiling."""
-        q, w = self.qpos, self.qvel
-        over = (q > self.hi) | (q < self.lo)
-        if np.count_nonzero(over):
-            np.minimum(np.maximum(q, self.lo, out=q), self.hi, out=q)
-            w[over] = 0.0
-        np.maximum(w, -MAX_JOINT_SPEED, out=w)
-        np.minimum(w, MAX_JOINT_SPEED, out=w)
-
-    def _move_hips(self) -> None:
-        h = self._hips_new
-        np.add(self.hips, self._hips_step, out=h)
-        np.maximum(h, self._hips_lo, out=h)  # np.clip's result, with less overhead per call
-        np.minimum(h, self._hips_hi, out=h)
-        np.subtract(h, self.hips, out=self.hips_velocity)
-        self.hips_velocity *= 1.0 / self.dt
-        # moved: either component nonzero, read as one complex number (no reduction call)
-        np.not_equal(self.hips_velocity.view(np.complex128)[..., 0], 0.0, out=self.base_moved)
-        self.hips[:] = h
-        self._sync_mocap()
+        humanlike_step.compiled_step()(
+            self.model._address, self.data._address, self._mass, self._m_index, self.qpos,
+            self.qvel, self.torque, self._bias, self.target, self.torque_limit, self._side,
+            self._face0, self._face_pos, self.hips, self._hips_step, self.hips_velocity,
+            self.base_moved, self._mocap, self.forward, self._constants)
 
     def _sync_mocap(self) -> None:
         np.multiply(self.hips, self.forward[..., None], out=self._mocap[..., :2])
@@ -463,8 +226,7 @@ class HumanLikeBodies(MjDataViews):
         """Nothing to store: ``step_lanes`` steps the arrays themselves."""
 
     def step_lanes(self, b: ArrayLanes | ScalarLanes, ops: Ops) -> None:
-        """``physics_step`` (the servo's linear algebra needs arrays), then scalar lanes read
-        the new state."""
+        """``physics_step`` (compiled, on the arrays), then scalar lanes read the new state."""
         self.physics_step()
         if b.scalar:
             self._read_lanes(b)
@@ -569,24 +331,6 @@ class HumanLikeBodies(MjDataViews):
         return np.sqrt(_group_sums(frac) / GROUP_SIZE)
 
 
-def _set_arrays(side: tuple[int, ...]) -> tuple:
-    """A saturated set (``side``: +1, -1 or 0 per joint) as the one-player servo uses it: held
-    flags, as a bool array, free flags as 0.0 / 1.0, and side as floats."""
-    held = tuple(s != 0 for s in side)
-    return (held, np.array(held), np.array([0.0 if h else 1.0 for h in held]),
-            np.array(side, dtype=np.float64))
-
-
-def _np_min(a: float, b: float) -> float:
-    """np.minimum of two numbers (b on a tie; not NaN-propagating: NaN never reaches it)."""
-    return a if a < b else b
-
-
-def _np_max(a: float, b: float) -> float:
-    """np.maximum of two numbers (b on a tie)."""
-    return a if a > b else b
-
-
 def _group_sums(x: np.ndarray) -> np.ndarray:
     """(..., 8) per-joint values summed per group (..., 5), in joint order as ``sum`` adds
     them (a group's joints are consecutive): column by column rather than one reduction per
@@ -609,54 +353,6 @@ def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 _YZX, _ZXY = np.array([1, 2, 0]), np.array([2, 0, 1])
-
-
-def _active_set_round(M: np.ndarray, acc: np.ndarray, lim: np.ndarray, neg: np.ndarray,
-                      zero: np.ndarray, bias: np.ndarray, side: np.ndarray, neg_eye: np.ndarray
-                      ) -> tuple[np.ndarray, np.ndarray]:
-    """One active-set round for k players, arrays (k, 8) and M (k, 8, 8): the torques with the
-    joints of nonzero ``side`` held at side * limit, and the set the optimality conditions ask
-    for next. ``neg`` is -limit, ``zero`` limit == 0, ``neg_eye`` -I."""
-    held = side != 0
-    bound = side * lim
-    # A is nonsingular: its determinant is +-det of the held joints' block of M, which is
-    # positive definite
-    A = np.where(held[:, None, :], M, neg_eye)
-    r = bound - bias - _matvec(M, np.where(held, 0.0, acc))
-    u = _solve(A, r)
-    tau = np.where(held, bound, u)
-    # KKT: a free joint must stay within its limit; a held one must fall short of its desired
-    # acceleration in the direction it pushes (else it is released), unless its limit is zero
-    # (both bounds at once: it stays held).
-    keep = held & ((side * (u - acc) <= 0.0) | zero)
-    return tau, np.where(held, np.where(keep, side, 0), _beyond(tau, lim, neg))
-
-
-def _beyond(tau: np.ndarray, lim: np.ndarray, neg: np.ndarray) -> np.ndarray:
-    """int8: +1 where ``tau`` > limit, -1 where it is below ``neg`` (-limit), else 0."""
-    return (tau > lim).view(np.int8) - (tau < neg).view(np.int8)
-
-
-def _as_rows(side: np.ndarray) -> np.ndarray:
-    """Each player's 8 int8 saturation flags read as one uint64, so that "any joint" and "any
-    change" are single comparisons instead of reductions along the joint axis."""
-    return side.view(np.uint64)[:, 0]
-
-
-def _solve(A: np.ndarray, r: np.ndarray) -> np.ndarray:
-    """``np.linalg.solve(A, r[..., None])[..., 0]``: the same LAPACK gufunc, called without
-    that function's type checks and error-state context (several NumPy calls each). Those
-    only turn a singular system's NaN result (with NumPy's "invalid value" warning) into
-    ``LinAlgError``; ``_active_set_round``'s systems are never singular."""
-    if _umath_linalg is None:  # pragma: no cover
-        return np.linalg.solve(A, r[..., None])[..., 0]
-    return _umath_linalg.solve(A, r[..., None], signature="dd->d")[..., 0]
-
-
-def _matvec(M: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """(…, 8, 8) @ (…, 8), summed explicitly so that every row is bit-identical whatever the
-    batch size (a batched BLAS call need not be)."""
-    return (M * v[..., None, :]).sum(axis=-1)
 
 
 def build_humanlike_world(n_envs: int, n_players: int, dt: float = 0.02) -> mujoco.MjModel:
