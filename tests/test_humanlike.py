@@ -358,21 +358,3 @@ def test_clipping_truncation_and_autoreset_info():
 def test_joint_and_group_tables_agree():
     assert len(JOINTS) == 8 and N_ACTIONS == 15
     assert np.bincount(JOINT_GROUP).tolist() == [1, 1, 3, 1, 2]
-
-
-def test_one_players_observation_matches_the_array_code_bit_for_bit():
-    """N = P = 1 observes on Python floats; the array code on the same states gives the same
-    bits, signed zeros included. (Its steps: tests/test_one_humanlike.py.)"""
-    from rallysim.core import humanlike_obs
-
-    rng = np.random.default_rng(0)
-    env = HumanLikeReturnEnv()
-    env.reset(seed=3)
-    for _ in range(200):
-        _, _, terminated, truncated, _ = env.step(rng.uniform(-1, 1, N_ACTIONS))
-        game = env.task.game
-        one = humanlike_obs.player_observations(game)
-        batch = humanlike_obs._player_observations_arrays(game, game.bodies)
-        assert one.shape == batch.shape and one.tobytes() == batch.tobytes()
-        if terminated or truncated:
-            env.reset()

@@ -27,7 +27,6 @@ angle means one pose for either player.
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import mujoco
@@ -45,10 +44,10 @@ XML = "humanlike_player.xml"
 JOINTS = ("spine_z", "chest_z", "upper_arm_x", "upper_arm_y", "upper_arm_z", "lower_arm_x",
           "hand_x", "hand_y")
 GROUPS = ("spine", "chest", "upper_arm", "lower_arm", "hand")  # strength groups = observed bodies
+N_BODIES = len(GROUPS)
 JOINT_GROUP = np.array([0, 1, 2, 2, 2, 3, 4, 4])
 N_JOINTS, N_GROUPS = len(JOINTS), len(GROUPS)
 GROUP_SIZE = np.bincount(JOINT_GROUP)  # joints per group; a group's joints are consecutive
-GROUP_START = np.concatenate([[0], np.cumsum(GROUP_SIZE)[:-1]])
 # Action layout: movement x, y; one target per joint; one strength per group.
 MOVE, TARGET, STRENGTH = slice(0, 2), slice(2, 2 + N_JOINTS), slice(2 + N_JOINTS, None)
 N_ACTIONS = 2 + N_JOINTS + N_GROUPS
@@ -103,7 +102,6 @@ class HumanLikeBodies(MjDataViews):
         self.torque_limit = np.zeros((*shape, N_JOINTS))
         self._hips_step = np.zeros((*shape, 2))
         self._face0 = np.zeros((*shape, 3))  # world face centre at the last step's start
-        self._forward_one = float(self.forward.flat[0])
         self._side = np.zeros((*shape, N_JOINTS), dtype=np.int8)  # servos saturated at +-limit
         hips_lo, hips_hi = self.hips_range[:, 0], self.hips_range[:, 1]
         self._constants = np.concatenate([self.lo, self.hi, self._joint_max_rate, [
@@ -272,87 +270,25 @@ class HumanLikeBodies(MjDataViews):
         """Own-frame states of the 5 driven bodies (spine, chest, upper arm, lower arm, hand):
         velocity of the body's origin (its joint), angular velocity, origin relative to the
         hips, orientation quaternion (w, x, y, z) with w >= 0; shapes (N, P, 5, 3 or 4)."""
-        self._sync()
-        d, ids = self.data, self._body_ids
-        flip = self.flip[..., None, :]
-        pos = d.xpos[ids]
-        root_com = d.subtree_com[self._hips_ids][..., None, :]
-        ang, lin = d.cvel[ids, :3], d.cvel[ids, 3:]
-        # MuJoCo's cvel is the spatial velocity at the tree's centre of mass; the hips are
-        # kinematic (invisible to MuJoCo's velocities), so their motion is added.
-        vel = (lin + _cross(ang, pos - root_com)) * flip
-        vel[..., :2] += self.hips_velocity[..., None, :]
-        rel = pos * flip - self.hips_position()[..., None, :]
-        return vel, ang * flip, rel, self._own_quat(d.xquat[ids])
-
-    def face_position_one(self) -> list[float]:
-        """One player's world face centre (x, y, z) as Python floats."""
-        self._sync()
-        return self._face_pos[0, 0].tolist()
-
-    def body_states_one(self) -> list[list[float]]:
-        """``body_states`` and ``body_effort`` of one player (N = P = 1) as Python floats,
-        the same operations in the same order: per body, velocity 3, angular velocity 3,
-        position relative to the hips 3, quaternion 4 and effort 1."""
-        self._sync()
-        d, ids = self.data, self._body_ids[0, 0]
-        cx, cy, cz = d.subtree_com[self._hips_ids[0, 0]].tolist()
-        f = self._forward_one  # flip: (f, f, 1.0)
-        (hvx, hvy), (hx, hy) = self.hips_velocity[0, 0].tolist(), self.hips[0, 0].tolist()
-        hz = self.hips_height
-        sq = [x * x for x in (self.torque[0, 0] / self._joint_max_torque).tolist()]
-        sums = (sq[0], sq[1], (sq[2] + sq[3]) + sq[4], sq[5], sq[6] + sq[7])  # _group_sums
-        out = []
-        for (px, py, pz), (a0, a1, a2, l0, l1, l2), q, total, size in zip(
-                d.xpos[ids].tolist(), d.cvel[ids].tolist(), d.xquat[ids].tolist(), sums,
-                GROUP_SIZE.tolist(), strict=True):
-            b0, b1, b2 = px - cx, py - cy, pz - cz
-            sign = -1.0 if q[0] < 0.0 else 1.0
-            out.append([(l0 + (a1 * b2 - a2 * b1)) * f + hvx, (l1 + (a2 * b0 - a0 * b2)) * f + hvy,
-                        (l2 + (a0 * b1 - a1 * b0)) * 1.0, a0 * f, a1 * f, a2 * 1.0,
-                        px * f - hx, py * f - hy, pz * 1.0 - hz, *(x * sign for x in q),
-                        math.sqrt(total / size)])
-        return out
-
-    def _own_quat(self, q: np.ndarray) -> np.ndarray:
-        """World quaternions (N, P, B, 4) -> own frame; player 1's frame is the world turned
-        180 degrees about z, i.e. q_own = (0, 0, 0, 1) * q."""
-        own = q
-        if self.n_players == 2:  # (player 0's own frame is the world's)
-            w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
-            turned = np.stack([-z, -y, x, w], axis=-1)
-            own = np.where((self.forward < 0)[..., None, None], turned, q)
-        return own * np.where(own[..., :1] < 0.0, -1.0, 1.0)
+        rows = self._body_rows()
+        return rows[..., 0:3], rows[..., 3:6], rows[..., 6:9], rows[..., 9:13]
 
     def body_effort(self) -> np.ndarray:
         """(N, P, 5) magnitude of each body's joint torques in the last physics step, as a
         fraction of its group's maximum: |tau| / (max torque * sqrt(joints)), in [0, 1]."""
-        frac = (self.torque / self._joint_max_torque) ** 2
-        return np.sqrt(_group_sums(frac) / GROUP_SIZE)
+        return self._body_rows()[..., 13]
 
-
-def _group_sums(x: np.ndarray) -> np.ndarray:
-    """(..., 8) per-joint values summed per group (..., 5), in joint order as ``sum`` adds
-    them (a group's joints are consecutive): column by column rather than one reduction per
-    group."""
-    out = x[..., GROUP_START]
-    for groups, joints in _GROUP_MEMBERS:
-        out[..., groups] += x[..., joints]
-    return out
-
-
-# (groups with a k-th joint, those joints) for k = 1, 2, ...: _group_sums adds them in order
-_GROUP_MEMBERS = [(np.flatnonzero(k < GROUP_SIZE), GROUP_START[k < GROUP_SIZE] + k)
-                  for k in range(1, int(GROUP_SIZE.max()))]
-
-
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``np.cross`` of (..., 3) arrays, in its order (a1 b2 - a2 b1, ...), without its generic
-    axis handling (a dozen NumPy calls)."""
-    return a[..., _YZX] * b[..., _ZXY] - a[..., _ZXY] * b[..., _YZX]
-
-
-_YZX, _ZXY = np.array([1, 2, 0]), np.array([2, 0, 1])
+    def _body_rows(self) -> np.ndarray:
+        """(N, P, 5, 14): ``body_states`` and ``body_effort`` in a row per body, computed by
+        ``humanlike_step`` (the observation's own code)."""
+        self._sync()
+        d = self.data
+        rows = np.empty((self.n_envs, self.n_players, N_BODIES, 14))
+        humanlike_step.compiled_observations()[0](
+            d.xpos, d.xquat, d.cvel, d.subtree_com, self._body_ids, self._hips_ids,
+            self.hips_velocity, self.hips, self.torque, self._joint_max_torque, self.forward,
+            self.hips_height, rows)
+        return rows
 
 
 def build_humanlike_world(n_envs: int, n_players: int, dt: float = 0.02) -> mujoco.MjModel:

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from rallysim.core import humanlike_step
 from rallysim.core.game import Game
 from rallysim.core.humanlike import HumanLikeBodies
 from rallysim.core.layout import Layout
@@ -47,63 +48,26 @@ SHUTTLE_VELOCITY = PLAYER_OBS["shuttle_velocity"]
 
 def player_observations(game: Game) -> np.ndarray:
     """(N, P, 82) float64 observations of every HUMAN-LIKE player, own frame, scaled (not yet
-    clipped). ``game.bodies`` must be ``HumanLikeBodies``."""
+    clipped), computed in one compiled loop over the players (``humanlike_step``).
+    ``game.bodies`` must be ``HumanLikeBodies``."""
     b: HumanLikeBodies = game.bodies  # type: ignore[assignment]
-    if (game.n_envs, game.n_players) == (1, 1):
-        return _player_observation_one(game, b)
-    return _player_observations_arrays(game, b)
-
-
-def _player_observations_arrays(game: Game, b: HumanLikeBodies) -> np.ndarray:
-    """``player_observations`` as array code over the batch."""
-    n, p = game.n_envs, game.n_players
-    out = np.empty((n, p, PLAYER_OBS_SIZE))
-    body = out[..., :N_BODIES * BODY_OBS_SIZE].reshape(n, p, N_BODIES, BODY_OBS_SIZE)
-    vel, ang, rel, quat = b.body_states()
-    np.divide(vel, BODY_SPEED_SCALE, out=body[..., 0:3])
-    np.divide(ang, BODY_RATE_SCALE, out=body[..., 3:6])
-    np.divide(rel, BODY_OFFSET_SCALE, out=body[..., 6:9])
-    body[..., 9:13] = quat
-    np.subtract(2.0 * b.body_effort(), 1.0, out=body[..., 13])
-    flip = b.flip  # x and y change sign in player 1's frame, z does not
-    np.multiply(game.shuttle.pos[:, None, :], flip, out=out[..., SHUTTLE_POSITION])
-    np.multiply(game.shuttle.vel[:, None, :], flip, out=out[..., SHUTTLE_VELOCITY])
-    out[..., SHUTTLE_VELOCITY] /= SHUTTLE_SPEED_SCALE
-    out[..., HIPS] = b.hips_position()
-    out[..., RACKET] = b.face_centre()
-    for positions in (out[..., SHUTTLE_POSITION], out[..., HIPS], out[..., RACKET]):
-        positions -= POSITION_CENTRE  # normalise_position, in place
-        positions /= POSITION_SCALE
+    b._sync()
+    d = b.data
+    out = np.empty((game.n_envs, game.n_players, PLAYER_OBS_SIZE))
+    humanlike_step.compiled_observations()[1](
+        d.xpos, d.xquat, d.cvel, d.subtree_com, b._body_ids, b._hips_ids, b.hips_velocity,
+        b.hips, b.torque, b._joint_max_torque, b.forward, b.hips_height, game.shuttle.pos,
+        game.shuttle.vel, b._face_pos, _SCALES, out)
     return out
 
 
-def _player_observation_one(game: Game, b: HumanLikeBodies) -> np.ndarray:
-    """``player_observations`` of one player (N = P = 1) computed on Python floats, the same
-    operations in the same order (each NumPy call would cost more than its arithmetic)."""
-    values = []
-    for v in b.body_states_one():
-        values += (v[0] / BODY_SPEED_SCALE, v[1] / BODY_SPEED_SCALE, v[2] / BODY_SPEED_SCALE,
-                   v[3] / BODY_RATE_SCALE, v[4] / BODY_RATE_SCALE, v[5] / BODY_RATE_SCALE,
-                   v[6] / BODY_OFFSET_SCALE, v[7] / BODY_OFFSET_SCALE,
-                   v[8] / BODY_OFFSET_SCALE, v[9], v[10], v[11], v[12], 2.0 * v[13] - 1.0)
-    f = b._forward_one  # flip: (f, f, 1.0)
-    x, y, z, vx, vy, vz = game.shuttle.motion[:, 0].tolist()
-    fx, fy, fz = b.face_position_one()
-    values += _normalised(x * f, y * f, z * 1.0)
-    values += (vx * f / SHUTTLE_SPEED_SCALE, vy * f / SHUTTLE_SPEED_SCALE,
-               vz * 1.0 / SHUTTLE_SPEED_SCALE)
-    values += _normalised(*b.hips[0, 0].tolist(), b.hips_height)
-    values += _normalised(fx * f, fy * f, fz * 1.0)
-    return np.array(values).reshape(1, 1, PLAYER_OBS_SIZE)
-
-
-def _normalised(x: float, y: float, z: float) -> tuple[float, float, float]:
-    """``normalise_position`` of one own-frame position, on floats."""
-    (cx, cy, cz), (sx, sy, sz) = _CENTRE, _SCALE
-    return (x - cx) / sx, (y - cy) / sy, (z - cz) / sz
-
-
-_CENTRE, _SCALE = POSITION_CENTRE.tolist(), POSITION_SCALE.tolist()
+# ``humanlike_step``'s observation layout and maps (its ``observations``' ``s``)
+_SCALES = np.array([BODY_SPEED_SCALE, BODY_RATE_SCALE, BODY_OFFSET_SCALE, SHUTTLE_SPEED_SCALE,
+                    *POSITION_CENTRE, *POSITION_SCALE])
+if (N_BODIES * BODY_OBS_SIZE, *(PLAYER_OBS[k].start for k in (
+        "shuttle_position", "shuttle_velocity", "hips_position", "racket_position"))) != (
+        70, 70, 73, 76, 79):
+    raise RuntimeError("humanlike_step.observations writes another layout")
 
 
 def opponent_positions(game: Game) -> np.ndarray:

@@ -199,3 +199,102 @@ def compiled_step() -> Callable:
     step = _physics_step_with(step1, step2, jit(_solve_with(dgesv)), jit(row_sums8), jit(np_min),
                               jit(np_max), jit(beyond))
     return jit(error_model="numpy")(step)  # NumPy's: a division by zero gives inf, not an error
+
+
+def _body_rows_with() -> Callable:
+    """``body_rows(e, p, <MuJoCo's arrays>, <the bodies' arrays>, hips_height, out)``: the
+    own-frame states of player (e, p)'s 5 driven bodies into ``out`` (5, 14): per body the
+    velocity of its origin 3, angular velocity 3, origin relative to the hips 3, quaternion
+    (w, x, y, z, w >= 0) 4 and effort 1 (``HumanLikeBodies.body_states``, ``body_effort``)."""
+
+    def body_rows(e, p, xpos, xquat, cvel, subtree_com, body_ids, hips_ids, hips_velocity,
+                  hips, torque, joint_max, forward, hips_height, out):
+        f = forward[e, p]
+        root = hips_ids[e, p]
+        cx, cy, cz = subtree_com[root, 0], subtree_com[root, 1], subtree_com[root, 2]
+        hvx, hvy = hips_velocity[e, p, 0], hips_velocity[e, p, 1]
+        hx, hy = hips[e, p, 0], hips[e, p, 1]
+        sq = np.empty(8)
+        for i in range(8):
+            x = torque[e, p, i] / joint_max[i]
+            sq[i] = x * x
+        sums = (sq[0], sq[1], (sq[2] + sq[3]) + sq[4], sq[5], sq[6] + sq[7])
+        sizes = (1.0, 1.0, 3.0, 1.0, 2.0)  # joints per group
+        for b in range(5):
+            k = body_ids[e, p, b]
+            px, py, pz = xpos[k, 0], xpos[k, 1], xpos[k, 2]
+            a0, a1, a2 = cvel[k, 0], cvel[k, 1], cvel[k, 2]
+            b0, b1, b2 = px - cx, py - cy, pz - cz
+            # MuJoCo's cvel is the spatial velocity at the tree's centre of mass; the hips are
+            # kinematic (invisible to MuJoCo's velocities), so their motion is added
+            out[b, 0] = (cvel[k, 3] + (a1 * b2 - a2 * b1)) * f + hvx
+            out[b, 1] = (cvel[k, 4] + (a2 * b0 - a0 * b2)) * f + hvy
+            out[b, 2] = (cvel[k, 5] + (a0 * b1 - a1 * b0)) * 1.0
+            out[b, 3], out[b, 4], out[b, 5] = a0 * f, a1 * f, a2 * 1.0
+            out[b, 6], out[b, 7], out[b, 8] = px * f - hx, py * f - hy, pz * 1.0 - hips_height
+            w, x, y, z = xquat[k, 0], xquat[k, 1], xquat[k, 2], xquat[k, 3]
+            if f < 0.0:  # player 1's frame is the world turned 180 degrees about z
+                w, x, y, z = -z, -y, x, w
+            sign = -1.0 if w < 0.0 else 1.0
+            out[b, 9], out[b, 10], out[b, 11], out[b, 12] = w * sign, x * sign, y * sign, z * sign
+            out[b, 13] = math.sqrt(sums[b] / sizes[b])
+
+    return body_rows
+
+
+def _all_body_rows_with(body_rows: Callable) -> Callable:
+    """``all_body_rows(..., out)``: ``body_rows`` of every player into ``out`` (N, P, 5, 14)."""
+
+    def all_body_rows(xpos, xquat, cvel, subtree_com, body_ids, hips_ids, hips_velocity, hips,
+                      torque, joint_max, forward, hips_height, out):
+        for e in range(out.shape[0]):
+            for p in range(out.shape[1]):
+                body_rows(e, p, xpos, xquat, cvel, subtree_com, body_ids, hips_ids,
+                          hips_velocity, hips, torque, joint_max, forward, hips_height,
+                          out[e, p])
+
+    return all_body_rows
+
+
+def _observations_with(body_rows: Callable) -> Callable:
+    """``observations(..., shuttle_pos, shuttle_vel, face, s, out)``: every player's 82 scaled
+    values (``rallysim.core.humanlike_obs``) into ``out`` (N, P, 82); ``s``: the body
+    speed, rate and offset scales, the shuttle speed scale, the position centre 3 and
+    scale 3."""
+
+    def observations(xpos, xquat, cvel, subtree_com, body_ids, hips_ids, hips_velocity, hips,
+                     torque, joint_max, forward, hips_height, shuttle_pos, shuttle_vel, face,
+                     s, out):
+        rows = np.empty((5, 14))
+        for e in range(out.shape[0]):
+            for p in range(out.shape[1]):
+                body_rows(e, p, xpos, xquat, cvel, subtree_com, body_ids, hips_ids,
+                          hips_velocity, hips, torque, joint_max, forward, hips_height, rows)
+                o = out[e, p]
+                for b in range(5):
+                    for i in range(3):
+                        o[14 * b + i] = rows[b, i] / s[0]
+                        o[14 * b + 3 + i] = rows[b, 3 + i] / s[1]
+                        o[14 * b + 6 + i] = rows[b, 6 + i] / s[2]
+                    for i in range(4):
+                        o[14 * b + 9 + i] = rows[b, 9 + i]
+                    o[14 * b + 13] = 2.0 * rows[b, 13] - 1.0
+                f = forward[e, p]
+                flip = (f, f, 1.0)
+                for i in range(3):
+                    o[70 + i] = (shuttle_pos[e, i] * flip[i] - s[4 + i]) / s[7 + i]
+                    o[73 + i] = shuttle_vel[e, i] * flip[i] / s[3]
+                    o[79 + i] = (face[e, p, i] * flip[i] - s[4 + i]) / s[7 + i]
+                o[76] = (hips[e, p, 0] - s[4]) / s[7]
+                o[77] = (hips[e, p, 1] - s[5]) / s[8]
+                o[78] = (hips_height - s[6]) / s[9]
+
+    return observations
+
+
+@functools.cache
+def compiled_observations() -> tuple[Callable, Callable]:
+    """The compiled body rows of every player and observations of every player."""
+    jit = native.numba_module().njit(error_model="numpy")
+    body_rows = jit(_body_rows_with())
+    return jit(_all_body_rows_with(body_rows)), jit(_observations_with(body_rows))
