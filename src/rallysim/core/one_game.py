@@ -235,12 +235,13 @@ def _compile() -> Kernels:
     sin = numba.njit(lambda x: np.sin(x))
     cos = numba.njit(lambda x: np.cos(x))
 
-    @numba.njit
     def sines(angles):
         out = np.empty((2, angles.size))
         for i in range(angles.size):
             out[0, i], out[1, i] = sin(angles[i]), cos(angles[i])
         return out
+
+    sines = native.jit(sines)  # (cached: the probe runs in each process)
 
     # whole turns of the arm, densely, then angles well beyond its stops
     angles = np.concatenate([np.linspace(-4.0, 4.0, 200_001),
@@ -248,9 +249,9 @@ def _compile() -> Kernels:
     if sines(angles).tobytes() != np.stack([np.sin(angles), np.cos(angles)]).tobytes():
         raise native.Unavailable("Numba's sine or cosine differ from NumPy's on this machine")
     step_apart = numba.njit(rules.step_apart_with(numba.njit(rules.apart)))
-    free_steps = numba.njit(_free_steps_with(step, sin, cos, step_apart, *compiled_helpers()))
+    free_steps = native.jit(_free_steps_with(step, sin, cos, step_apart, *compiled_helpers()))
     # (NumPy's error model: a zero scale gives inf or NaN, as the lanes code's arrays do)
-    observation = numba.njit(error_model="numpy")(_observation_with(sin, cos))
+    observation = native.jit(_observation_with(sin, cos), error_model="numpy")
     _dry_run(free_steps, observation)
     return Kernels(free_steps, observation)
 

@@ -53,8 +53,7 @@ def _solve_with(dgesv: Callable) -> Callable:
         ints = np.empty(5, np.int64)  # n, nrhs, lda, ldb, info
         ints[0], ints[1], ints[2], ints[3], ints[4] = 8, 1, 8, 8, 0
         ipiv = np.empty(8, np.int64)
-        dgesv(ints[0:].ctypes.data, ints[1:].ctypes.data, a.ctypes.data, ints[2:].ctypes.data,
-              ipiv.ctypes.data, u.ctypes.data, ints[3:].ctypes.data, ints[4:].ctypes.data)
+        dgesv(ints[0:], ints[1:], a, ints[2:], ipiv, u, ints[3:], ints[4:])
         if ints[4] != 0:  # a singular system: NumPy's gufunc gives NaN
             for i in range(8):
                 u[i] = np.nan
@@ -233,9 +232,9 @@ def _compile() -> Callable:
     row_sums = numba.njit(row_sums8)
     solve = numba.njit(_solve_with(native.numpy_dgesv()))
     _probe(numba, row_sums, solve)
-    physics_step = numba.njit(_physics_step_with(step1, step2, solve, row_sums))
+    physics_step = native.jit(_physics_step_with(step1, step2, solve, row_sums))
     step_apart = numba.njit(rules.step_apart_with(numba.njit(rules.apart)))
-    steps = Steps(physics_step, numba.njit(_free_steps_with(physics_step, step_apart,
+    steps = Steps(physics_step, native.jit(_free_steps_with(physics_step, step_apart,
                                                             *one_game.compiled_helpers())))
     _dry_run(steps)
     return steps
@@ -243,16 +242,19 @@ def _compile() -> Callable:
 
 def _dry_run(steps: Steps) -> None:
     """Compile both functions now, for arrays of the types a game's are, by a call of the free
-    steps that runs no physics step (``physics_step`` is compiled with it, for the same
-    arrays), so that a failure shows here, where the Python code can take over."""
+    steps that runs no physics step, and ``physics_step`` for the same arrays (compiled with
+    the free steps, or both loaded from Numba's cache), so that a failure shows here, where
+    the Python code can take over."""
     f = np.zeros
     one = (f((1, 1, 8)), f((1, 1, 8)), f((1, 1, 8), np.int8), f((1, 1, 3)), f((1, 1, 3)),
            f((1, 1, 3, 3)), f((1, 1, 2)), f((1, 1, 2)), f((1, 1, 2)), f((1, 1), bool),
            f((1, 1, 3)), f(N_CONSTANTS))
+    body = (0, 0, f(36), f((1, 1, 8, 8), np.int64), f(8), f(8), f(8), f(8))
     counts = f((1, 1), np.int64)
-    steps.free_steps(0, 0, f(36), f((1, 1, 8, 8), np.int64), f(8), f(8), f(8), f(8), *one,
-                     f((6, 1)), f((1, 3, 3)), f(1), f((1, 1)), counts, counts, f((1, 1), bool),
-                     f(18), 0, False)
+    steps.free_steps(*body, *one, f((6, 1)), f((1, 3, 3)), f(1), f((1, 1)), counts, counts,
+                     f((1, 1), bool), f(18), 0, False)
+    numba = native.numba_module()
+    steps.physics_step.compile(tuple(numba.typeof(a) for a in body + one[:5] + one[6:]))
 
 
 def _probe(numba, row_sums: Callable, solve: Callable) -> None:
@@ -268,13 +270,14 @@ def _probe(numba, row_sums: Callable, solve: Callable) -> None:
     A = np.where(rng.random((n, 1, 8)) < 0.5, spd, -np.eye(8))
     r = rng.standard_normal((n, 8)) * 10.0 ** rng.integers(-3, 3, (n, 8))
 
-    @numba.njit
     def run(p, A, r):
         sums, u = np.empty((p.shape[0], 8)), np.empty((p.shape[0], 8))
         for t in range(p.shape[0]):
             row_sums(p[t], sums[t])
             solve(A[t], r[t], u[t])
         return sums, u
+
+    run = native.jit(run)  # (cached: the probe runs in each process)
 
     sums, u = run(p, A, r)
     if sums.tobytes() != np.add.reduce(p, axis=-1).tobytes():
