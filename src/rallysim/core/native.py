@@ -9,6 +9,12 @@ and what is compiled anew (sine, cosine, sums) is probed against NumPy before it
 Where any of that cannot be had, ``Kernel`` says why and the Python path runs instead, with the
 same results.
 
+The kernels are compiled once per machine and kept in Numba's cache (``jit``): the C functions
+are named as symbols in the machine code (``c_function``), found at load time in the libraries
+``load_permanently`` loaded, so a later process loads the code instead of compiling it. The
+probes still run in every process (on the cached code), since NumPy's own choice of code
+depends on the process's settings.
+
 ``KERNEL`` (or the environment variable ``RALLYSIM_KERNEL``) chooses: ``auto`` (the compiled
 kernels where they can be had, Python elsewhere), ``python`` or ``compiled`` (refused where
 they cannot run).

@@ -16,7 +16,7 @@ out of play) in ``_free_steps_with``; and the player's scaled observation
 (``simple_obs.raw_observation_lanes`` with ``ScalarOps.observations``) in
 ``_observation_with``, which runs compiled only.
 
-That function runs as Python, or compiled by Numba (the ``fast`` extra; Linux, where MuJoCo's
+That function runs as Python, or compiled by Numba (on Linux, where MuJoCo's
 library is ``libmujoco.so``) where the compiled sine and cosine give NumPy's float64 bits (NumPy's
 own SIMD versions, used on some CPUs, may differ from the C library's in the last bit): compiled,
 MuJoCo's ``mj_step`` is called from the loop directly, with no Python between physics steps.

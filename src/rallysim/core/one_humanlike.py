@@ -4,7 +4,7 @@ the hips, with no Python in between.
 ``HumanLikeBodies.physics_step`` of one player (N = P = 1, the single env
 ``gym.make("RallySim/HumanLikeReturn-v0")``) runs its ``_one`` methods on Python floats, which
 restate the batch's array code operation for operation. ``_physics_step_with`` restates those
-once more as loops that Numba compiles (the ``fast`` extra), so that the step costs about what
+once more as loops that Numba compiles, so that the step costs about what
 MuJoCo's own work does. It gives their bits because everything it calls from C is what they
 call: MuJoCo's ``mj_step1`` and ``mj_step2`` from the bindings' own library, and LAPACK's
 ``dgesv`` from the library behind NumPy's ``linalg.solve``, handed the matrix in the layout
