@@ -117,13 +117,12 @@ def jit(function: Callable, **options: Any) -> Any:
 
 
 def _keyed_cache(function: Callable) -> Any:
-    """A ``_KeyedCache`` of ``function``, or None where Numba has no cache for it or where
-    ``fingerprint`` cannot describe it."""
+    """A ``_KeyedCache`` of ``function``, or None where Numba has no cache for it."""
     try:
         from numba.core.caching import FunctionCache
-        key = fingerprint(function)
-    except (ImportError, ValueError):
+    except ImportError:
         return None
+    key = fingerprint(function)
 
     class _KeyedCache(FunctionCache):
         """Numba's cache of one function, its entries keyed on the signature, the target CPU
@@ -144,8 +143,7 @@ def fingerprint(function: Callable) -> str:
     and constants, and those of every function, compiled function and intrinsic it closes over
     or reads as a global, with the values of the plain globals it reads (which Numba freezes
     into the machine code). Numba's cache checks the modification time of ``function``'s own
-    file; this covers the files of what it calls. ``ValueError`` for a value that cannot be
-    described stably."""
+    file; this covers the files of what it calls."""
     return hashlib.sha256(repr(_describe(function, set())).encode()).hexdigest()
 
 
@@ -155,6 +153,8 @@ def _describe(value: Any, seen: set[int]) -> Any:
         return (type(value).__name__, repr(value))
     if isinstance(value, (tuple, list)):
         return (type(value).__name__, tuple(_describe(v, seen) for v in value))
+    if isinstance(value, (set, frozenset)):  # (sorted: string hashes differ per process)
+        return (type(value).__name__, tuple(sorted(repr(_describe(v, seen)) for v in value)))
     if isinstance(value, types.ModuleType):
         return ("module", value.__name__)
     if isinstance(value, np.ndarray):
@@ -178,12 +178,16 @@ def _describe(value: Any, seen: set[int]) -> Any:
     defn = getattr(value, "_defn", None)
     if isinstance(defn, types.FunctionType):  # a Numba intrinsic
         return ("intrinsic", getattr(value, "_name", ""), _describe(defn, seen))
-    raise ValueError(f"no stable description of {type(value).__qualname__}")
+    # anything else (a NumPy scalar, an enum; or a name read only as an attribute): its repr,
+    # where that does not show the object's address (Numba freezes no such object)
+    text = repr(value)
+    kind = (type(value).__module__, type(value).__qualname__)
+    return ("object", kind) if " at 0x" in text else ("value", kind, text)
 
 
 def _code(code: types.CodeType) -> tuple:
     """What a code object compiles to (not its file or line numbers)."""
-    consts = tuple(_code(c) if isinstance(c, types.CodeType) else (type(c).__name__, repr(c))
+    consts = tuple(_code(c) if isinstance(c, types.CodeType) else _describe(c, set())
                    for c in code.co_consts)
     return (code.co_code.hex(), consts, code.co_names, code.co_varnames, code.co_freevars,
             code.co_cellvars, code.co_argcount, code.co_kwonlyargcount, code.co_flags)
@@ -316,11 +320,14 @@ class _DlInfo(ctypes.Structure):
 
 def _library_of(address: int) -> str:
     """The path of the shared library that holds ``address`` (``dladdr``)."""
-    libc = ctypes.CDLL(None)
-    try:
-        dladdr = libc.dladdr
-    except AttributeError:
-        raise Unavailable("dladdr cannot be had here") from None
+    for name in (None, "libdl.so.2"):  # (glibc before 2.34 has it in libdl only)
+        try:
+            dladdr = ctypes.CDLL(name).dladdr
+            break
+        except (OSError, AttributeError):
+            continue
+    else:
+        raise Unavailable("dladdr cannot be had here")
     dladdr.argtypes, dladdr.restype = [ctypes.c_void_p, ctypes.POINTER(_DlInfo)], ctypes.c_int
     info = _DlInfo()
     if not dladdr(address, ctypes.byref(info)) or not info.dli_fname:
