@@ -235,13 +235,12 @@ def _compile() -> Kernels:
     sin = numba.njit(lambda x: np.sin(x))
     cos = numba.njit(lambda x: np.cos(x))
 
+    @native.jit  # (cached, as the kernels: the probe runs in every process)
     def sines(angles):
         out = np.empty((2, angles.size))
         for i in range(angles.size):
             out[0, i], out[1, i] = sin(angles[i]), cos(angles[i])
         return out
-
-    sines = native.jit(sines)  # (cached: the probe runs in each process)
 
     # whole turns of the arm, densely, then angles well beyond its stops
     angles = np.concatenate([np.linspace(-4.0, 4.0, 200_001),

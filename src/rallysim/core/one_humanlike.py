@@ -270,6 +270,7 @@ def _probe(row_sums: Callable, solve: Callable) -> None:
     A = np.where(rng.random((n, 1, 8)) < 0.5, spd, -np.eye(8))
     r = rng.standard_normal((n, 8)) * 10.0 ** rng.integers(-3, 3, (n, 8))
 
+    @native.jit  # (cached, as the kernels: the probe runs in every process)
     def run(p, A, r):
         sums, u = np.empty((p.shape[0], 8)), np.empty((p.shape[0], 8))
         for t in range(p.shape[0]):
@@ -277,7 +278,6 @@ def _probe(row_sums: Callable, solve: Callable) -> None:
             solve(A[t], r[t], u[t])
         return sums, u
 
-    run = native.jit(run)  # (cached: the probe runs in each process)
     sums, u = run(p, A, r)
     if sums.tobytes() != np.add.reduce(p, axis=-1).tobytes():
         raise native.Unavailable("the compiled row sums differ from NumPy's on this machine")
