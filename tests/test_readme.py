@@ -104,3 +104,14 @@ def test_the_performance_table_is_the_committed_json():
     for key in ("ours_256", "ours_64", "single_simple", "single_simple_python",
                 "single_humanlike", "single_pendulum"):
         assert f"| {rows[key]['decisions_per_s']:,.0f} |" in text, key
+
+
+def test_the_first_step_figures_are_the_committed_json():
+    results = json.loads((DATA / "first_step.json").read_text())["results"]
+    text = (ROOT / "docs" / "performance.md").read_text()
+    simple, humanlike = results["RallySim/SimpleReturn-v0"], results["RallySim/HumanLikeReturn-v0"]
+    for r in (simple, humanlike):
+        assert r["warm_loaded_from_cache"]
+        assert f"{r['cold']['first_step_s']:.1f} s" in text
+        assert f"{r['warm_median_s']:.2f} s" in text
+        assert f"{r['warm_without_scipy_median_s']:.2f} s" in text

@@ -65,8 +65,7 @@ def _solve_with(dgesv: Callable) -> Callable:
                 a[j * 8 + i] = A[i, j]
             u[i] = r[i]
         ints[0], ints[1], ints[2], ints[3], ints[4] = 8, 1, 8, 8, 0  # n, nrhs, lda, ldb, info
-        dgesv(ints[0:].ctypes.data, ints[1:].ctypes.data, a.ctypes.data, ints[2:].ctypes.data,
-              ipiv.ctypes.data, u.ctypes.data, ints[3:].ctypes.data, ints[4:].ctypes.data)
+        dgesv(ints[0:], ints[1:], a, ints[2:], ipiv, u, ints[3:], ints[4:])
         if ints[4] != 0:  # a singular system: NumPy's gufunc gives NaN
             for i in range(8):
                 u[i] = np.nan
@@ -198,7 +197,8 @@ def compiled_step() -> Callable:
     jit = numba.njit
     step = _physics_step_with(step1, step2, jit(_solve_with(dgesv)), jit(row_sums8), jit(np_min),
                               jit(np_max), jit(beyond))
-    return jit(error_model="numpy")(step)  # NumPy's: a division by zero gives inf, not an error
+    # NumPy's error model: a division by zero gives inf, not an error
+    return native.jit(step, error_model="numpy")
 
 
 def _body_rows_with() -> Callable:
@@ -295,6 +295,6 @@ def _observations_with(body_rows: Callable) -> Callable:
 @functools.cache
 def compiled_observations() -> tuple[Callable, Callable]:
     """The compiled body rows of every player and observations of every player."""
-    jit = native.numba_module().njit(error_model="numpy")
-    body_rows = jit(_body_rows_with())
-    return jit(_all_body_rows_with(body_rows)), jit(_observations_with(body_rows))
+    body_rows = native.numba_module().njit(error_model="numpy")(_body_rows_with())
+    return (native.jit(_all_body_rows_with(body_rows), error_model="numpy"),
+            native.jit(_observations_with(body_rows), error_model="numpy"))

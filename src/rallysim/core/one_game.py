@@ -16,7 +16,7 @@ out of play) in ``_free_steps_with``; and the player's scaled observation
 (``simple_obs.raw_observation_lanes`` with ``ScalarOps.observations``) in
 ``_observation_with``, which runs compiled only.
 
-That function runs as Python, or compiled by Numba (the ``fast`` extra; Linux, where MuJoCo's
+That function runs as Python, or compiled by Numba (on Linux, where MuJoCo's
 library is ``libmujoco.so``) where the compiled sine and cosine give NumPy's float64 bits (NumPy's
 own SIMD versions, used on some CPUs, may differ from the C library's in the last bit): compiled,
 MuJoCo's ``mj_step`` is called from the loop directly, with no Python between physics steps.
@@ -235,7 +235,7 @@ def _compile() -> Kernels:
     sin = numba.njit(lambda x: np.sin(x))
     cos = numba.njit(lambda x: np.cos(x))
 
-    @numba.njit
+    @native.jit  # (cached, as the kernels: the probe runs in every process)
     def sines(angles):
         out = np.empty((2, angles.size))
         for i in range(angles.size):
@@ -248,9 +248,9 @@ def _compile() -> Kernels:
     if sines(angles).tobytes() != np.stack([np.sin(angles), np.cos(angles)]).tobytes():
         raise native.Unavailable("Numba's sine or cosine differ from NumPy's on this machine")
     step_apart = numba.njit(rules.step_apart_with(numba.njit(rules.apart)))
-    free_steps = numba.njit(_free_steps_with(step, sin, cos, step_apart, *compiled_helpers()))
+    free_steps = native.jit(_free_steps_with(step, sin, cos, step_apart, *compiled_helpers()))
     # (NumPy's error model: a zero scale gives inf or NaN, as the lanes code's arrays do)
-    observation = numba.njit(error_model="numpy")(_observation_with(sin, cos))
+    observation = native.jit(_observation_with(sin, cos), error_model="numpy")
     _dry_run(free_steps, observation)
     return Kernels(free_steps, observation)
 

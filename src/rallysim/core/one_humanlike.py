@@ -73,7 +73,7 @@ def compiled_free_steps() -> Callable:
     process."""
     numba = native.numba_module()
     step_apart = numba.njit(rules.step_apart_with(numba.njit(rules.apart)))
-    return numba.njit(_free_steps_with(humanlike_step.compiled_step(), step_apart,
+    return native.jit(_free_steps_with(humanlike_step.compiled_step(), step_apart,
                                        *one_game.compiled_helpers()))
 
 
