@@ -230,9 +230,9 @@ def _steps_with(njit: Callable, mj_step: Callable, sin: Callable, cos: Callable)
         return max(1, count)
 
     @inline
-    def fly(a, k, e, count):
-        """One game's shuttle through one physics step (``ShuttleModel.fly``)."""
-        m = a.motion
+    def fly(m, shot_time_a, shot_speed_a, k, e, count):
+        """One game's shuttle (``m``: the motion) through one physics step
+        (``ShuttleModel.fly``)."""
         px, py, pz, vx, vy, vz = m[0, e], m[1, e], m[2, e], m[3, e], m[4, e], m[5, e]
         dt = k.dt
         if k.flight == AERO:
@@ -248,7 +248,7 @@ def _steps_with(njit: Callable, mj_step: Callable, sin: Callable, cos: Callable)
                 px += vx * h
                 py += vy * h
                 pz += vz * h
-            shot_time = a.shot_time[e] + dt
+            shot_time = shot_time_a[e] + dt
         else:
             vz -= k.fall
             f = k.factor
@@ -258,50 +258,49 @@ def _steps_with(njit: Callable, mj_step: Callable, sin: Callable, cos: Callable)
             px += vx * dt
             py += vy * dt
             pz += vz * dt
-            shot_time = a.shot_time[e] + dt
+            shot_time = shot_time_a[e] + dt
             if k.flight == PAPER_ALG1 and shot_time < k.window:
                 # the speed forced to s0 (1 - t), direction kept
                 speed = math.sqrt((vx * vx + vy * vy) + vz * vz)
-                target = a.shot_speed[e] * (1.0 - shot_time)
+                target = shot_speed_a[e] * (1.0 - shot_time)
                 r = target / speed if speed > 0 else 0.0
                 vx *= r
                 vy *= r
                 vz *= r
-        a.shot_time[e] = shot_time
+        shot_time_a[e] = shot_time
         m[0, e], m[1, e], m[2, e], m[3, e], m[4, e], m[5, e] = px, py, pz, vx, vy, vz
 
     @inline
-    def observe(a, k, e, p):
-        """``Game._observe`` of one game: the shuttle in each face's frame (normal, across,
-        along the arm) and in the world, into the tested points ``q``."""
-        m = a.motion
+    def observe(q, m, fwd, theta_a, base_x, k, e, p):
+        """``Game._observe`` of one game: the shuttle (``m``: the motion) in each face's frame
+        (normal, across, along the arm) and in the world, into the tested points ``q``."""
         px, py, pz = m[0, e], m[1, e], m[2, e]
         fo = k.face_offset
         for j in range(p):
-            f = a.fwd[e, j]
-            theta = a.theta[e, j]
+            f = fwd[e, j]
+            theta = theta_a[e, j]
             s, c = sin(theta), cos(theta)
-            dx = f * px - a.base_x[e, j] - fo * s
+            dx = f * px - base_x[e, j] - fo * s
             dz = pz - k.pivot_z - fo * c
-            a.q[e, j, 0] = dx * c - dz * s
-            a.q[e, j, 1] = f * py
-            a.q[e, j, 2] = dx * s + dz * c
+            q[e, j, 0] = dx * c - dz * s
+            q[e, j, 1] = f * py
+            q[e, j, 2] = dx * s + dz * c
         for c in range(p, p + 2):
-            a.q[e, c, 0], a.q[e, c, 1], a.q[e, c, 2] = px, py, pz
+            q[e, c, 0], q[e, c, 1], q[e, c, 2] = px, py, pz
 
     @inline
-    def entry(a, e, c):
-        """``rules.segment_box_entry`` of column ``c`` of game ``e``, from ``q0`` to ``q``:
-        (met, t)."""
+    def entry(q0, q, lo, hi, e, c):
+        """``rules.segment_box_entry`` of column ``c`` of game ``e``, from ``q0`` to ``q``
+        against the box [lo[c], hi[c]]: (met, t)."""
         n0 = n1 = n2 = f0 = f1 = f2 = 0.0
         for axis in range(3):
-            x0 = a.q0[e, c, axis]
-            d = a.q[e, c, axis] - x0
+            x0 = q0[e, c, axis]
+            d = q[e, c, axis] - x0
             if abs(d) < 1e-12:
                 d = 1e-12 if d >= 0.0 else -1e-12
             inv = 1.0 / d
-            ta = (a.lo[c, axis] - x0) * inv
-            tb = (a.hi[c, axis] - x0) * inv
+            ta = (lo[c, axis] - x0) * inv
+            tb = (hi[c, axis] - x0) * inv
             near = ta if ta < tb else tb
             far = ta if ta > tb else tb
             if axis == 0:
@@ -318,8 +317,8 @@ def _steps_with(njit: Callable, mj_step: Callable, sin: Callable, cos: Callable)
         return (t_enter <= t_exit) and (t_enter <= 1.0), t_enter
 
     @inline
-    def below_cap(a, k, e):
-        return k.max_hits < 0 or a.hits[e] < k.max_hits
+    def below_cap(hits, k, e):
+        return k.max_hits < 0 or hits[e] < k.max_hits
 
     @inline
     def apply_hit(a, ev, k, e, j, t, p):
@@ -374,7 +373,7 @@ def _steps_with(njit: Callable, mj_step: Callable, sin: Callable, cos: Callable)
                     m[axis, e] = start + t * (m[axis, e] - start)
                 m[0, e] = side * k.net_face
                 m[3, e] = 0.0
-            observe(a, k, e, p)
+            observe(a.q, m, a.fwd, a.theta, a.base_x, k, e, p)
 
     @inline
     def land(a, ev, k, e, t, p):
@@ -401,26 +400,19 @@ def _steps_with(njit: Callable, mj_step: Callable, sin: Callable, cos: Callable)
         m[4, e] = 0.0
         m[5, e] = 0.0
 
-    @inline
-    def judge(a, ev, k, e, p):
-        """The swept test of game ``e``'s points from ``q0`` to ``q`` and what it decides
-        (``Game._judge``): a hit by the first armed player met, then the net and the floor
-        (tested again after a hit, from the step's start to the shuttle's new place); a hit
-        that reaches the cap ends the judging of the rally."""
-        live = below_cap(a, k, e)
-        if not live:
-            return
-        for j in range(p):
-            met, t = entry(a, e, j)
-            if met and a.armed[e, j]:
-                apply_hit(a, ev, k, e, j, t, p)
-                observe(a, k, e, p)
-                live = below_cap(a, k, e)
-                break
-        if not live:
-            return
-        touched, t_net = entry(a, e, p)
-        landed, t_floor = entry(a, e, p + 1)
+    @njit
+    def judge_contacts(a, ev, k, e, p, hitter, t_hit):
+        """What a game's contacts do (``Game._judge``, after the swept test found some): a
+        hit by ``hitter`` at ``t_hit`` (none: -1), after which the net and the floor are tested
+        again from the step's start to the shuttle's new place; then the net and the floor.
+        A hit that reaches the cap ends the judging of the rally. (Rare: not inlined.)"""
+        if hitter >= 0:
+            apply_hit(a, ev, k, e, hitter, t_hit, p)
+            observe(a.q, a.motion, a.fwd, a.theta, a.base_x, k, e, p)
+            if not below_cap(a.hits, k, e):
+                return
+        touched, t_net = entry(a.q0, a.q, a.lo, a.hi, e, p)
+        landed, t_floor = entry(a.q0, a.q, a.lo, a.hi, e, p + 1)
         if touched:
             apply_net(a, ev, k, e, t_net, p)
         if landed:
@@ -429,38 +421,56 @@ def _steps_with(njit: Callable, mj_step: Callable, sin: Callable, cos: Callable)
     @inline
     def step(model, data, a, ev, k, n, p):
         """One physics step of the batch (``Game._step_lanes``)."""
-        m = a.motion
+        m, q, q0, lo, hi = a.motion, a.q, a.q0, a.lo, a.hi
+        fwd, theta, base_x, armed = a.fwd, a.theta, a.base_x, a.armed
+        shot_time, shot_speed, in_play, active = a.shot_time, a.shot_speed, a.in_play, a.active
+        has_hit, moved, gaps, hits = a.has_hit, a.base_moved, a.gap, a.hits
+        good_a, bad_a = ev.approach_good, ev.approach_bad
         for e in range(n):  # the points the swept test starts from
             for c in range(p):
                 for axis in range(3):
-                    a.q0[e, c, axis] = a.q[e, c, axis]
+                    q0[e, c, axis] = q[e, c, axis]
             for c in range(p, p + 2):
                 for axis in range(3):
-                    a.q0[e, c, axis] = m[axis, e]
+                    q0[e, c, axis] = m[axis, e]
         drive_bodies(a, k, n, p)
         mj_step(model, data)
         hard_stops(a, k, n, p)
         count = substeps(a, k, n)
         for e in range(n):
-            live = a.in_play[e] and a.active[e]
+            live = in_play[e] and active[e]
             if live:
-                fly(a, k, e, count)
+                fly(m, shot_time, shot_speed, k, e, count)
             else:  # a held shuttle stays put (its shot time runs on) until its env is reset
                 px, py, pz, vx, vy, vz = m[0, e], m[1, e], m[2, e], m[3, e], m[4, e], m[5, e]
-                fly(a, k, e, count)
+                fly(m, shot_time, shot_speed, k, e, count)
                 m[0, e], m[1, e], m[2, e], m[3, e], m[4, e], m[5, e] = px, py, pz, vx, vy, vz
-            observe(a, k, e, p)
+            observe(q, m, fwd, theta, base_x, k, e, p)
             if k.shaping:  # the steps each base closed in on the shuttle before a first hit
                 px = m[0, e]
                 for j in range(p):
-                    gap = abs(a.fwd[e, j] * px - a.base_x[e, j])
-                    todo = live and not a.has_hit[e, j]
-                    good = a.base_moved[e, j] and gap < a.gap[e, j] and todo
-                    ev.approach_good[e, j] += good
-                    ev.approach_bad[e, j] += todo and not good
-                    a.gap[e, j] = gap
-            if live:
-                judge(a, ev, k, e, p)
+                    gap = abs(fwd[e, j] * px - base_x[e, j])
+                    todo = live and not has_hit[e, j]
+                    good = moved[e, j] and gap < gaps[e, j] and todo
+                    good_a[e, j] += good
+                    bad_a[e, j] += todo and not good
+                    gaps[e, j] = gap
+            if not (live and below_cap(hits, k, e)):
+                continue
+            # the swept test: the first armed player met hits; the net; the floor
+            hitter, t_hit = -1, 0.0
+            for j in range(p):
+                met, t = entry(q0, q, lo, hi, e, j)
+                if met and armed[e, j]:
+                    hitter, t_hit = j, t
+                    break
+            if hitter >= 0:
+                judge_contacts(a, ev, k, e, p, hitter, t_hit)
+                continue
+            touched, _ = entry(q0, q, lo, hi, e, p)
+            landed, _ = entry(q0, q, lo, hi, e, p + 1)
+            if touched or landed:
+                judge_contacts(a, ev, k, e, p, -1, 0.0)
 
     @njit
     def steps_of(model, data, a, ev, constants, steps):
