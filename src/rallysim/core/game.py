@@ -252,6 +252,8 @@ class Game:
     def _refresh(self) -> None:
         """Recompute what the next physics step starts from (the shuttle in the faces' frames,
         the shaping's gaps) after the state was set by hand."""
+        if self._simple is not None and self._simple.refresh(self):
+            return
         g = self._lanes(self.ops)
         own = self._observe(g, self.ops)
         g.gap = abs(own[0] - g.body.base_x)

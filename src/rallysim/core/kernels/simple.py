@@ -173,10 +173,12 @@ def fits(game: Any) -> bool:
     return type(game.bodies) is SimpleBodies and type(game.flight) in FLIGHTS
 
 
-def _steps_with(njit: Callable, mj_step: Callable, sin: Callable, cos: Callable) -> Callable:
-    """The compiled steps, calling MuJoCo's ``mj_step`` (of model and data addresses) and the
-    probed sine and cosine. The helpers are inlined where they are called: a call that takes
-    the state's tuple of arrays would count a reference to each of them."""
+def _steps_with(njit: Callable, mj_step: Callable, sin: Callable, cos: Callable
+                ) -> tuple[Callable, Callable]:
+    """The compiled steps and ``refresh``, calling MuJoCo's ``mj_step`` (of model and data
+    addresses) and the probed sine and cosine. The helpers are inlined where they are called,
+    and those run per game take only the arrays they use: a call that takes the state's tuple
+    of arrays would count a reference to each of them."""
     inline = njit(inline="always")
 
     @inline
@@ -481,7 +483,19 @@ def _steps_with(njit: Callable, mj_step: Callable, sin: Callable, cos: Callable)
         for _ in range(steps):
             step(model, data, a, ev, k, n, p)
 
-    return steps_of
+    @njit
+    def refresh(a, constants):
+        """What the next physics step starts from, after the state was set by hand
+        (``Game._refresh``): the shuttle in each face's frame and the shaping's gaps."""
+        k = constants[0]
+        n, p = a.theta.shape
+        m, fwd, base_x = a.motion, a.fwd, a.base_x
+        for e in range(n):
+            observe(a.q, m, fwd, a.theta, base_x, k, e, p)
+            for j in range(p):
+                a.gap[e, j] = abs(fwd[e, j] * m[0, e] - base_x[e, j])
+
+    return steps_of, refresh
 
 
 def _observation_with(njit: Callable, sin: Callable, cos: Callable) -> Callable:
@@ -526,6 +540,7 @@ class Kernels(NamedTuple):
     """The compiled functions of SIMPLE games."""
 
     steps: Callable  # ``_steps_with``'s
+    refresh: Callable  # ``_steps_with``'s
     observation: Callable  # ``_observation_with``'s
 
 
@@ -550,7 +565,7 @@ def _compile() -> Kernels:
                              np.random.default_rng(0).uniform(-40.0, 40.0, 100_000)])
     if sines(angles).tobytes() != np.stack([np.sin(angles), np.cos(angles)]).tobytes():
         raise native.Unavailable("Numba's sine or cosine differ from NumPy's on this machine")
-    kernels = Kernels(_steps_with(numba.njit, mj_step, sin, cos),
+    kernels = Kernels(*_steps_with(numba.njit, mj_step, sin, cos),
                       _observation_with(numba.njit, sin, cos))
     _dry_run(kernels)
     return kernels
@@ -567,6 +582,7 @@ def _dry_run(kernels: Kernels) -> None:
                          b, b, i1, i1, b1, q, q, f, box, box)
     events = SimpleEvents(b, f, f3, f3, b1, b1, np.zeros((1, 3)), i1, b1, i, i)
     kernels.steps(0, 0, state, events, np.zeros(1, CONSTANTS_DTYPE), 0)
+    kernels.refresh(state._replace(theta=np.zeros((0, 1))), np.zeros(1, CONSTANTS_DTYPE))
     maps = np.ones(17)
     maps.flags.writeable = False
     kernels.observation(state, f1, 0.0, 0.0, maps, maps)
@@ -620,6 +636,14 @@ class SimpleKernel:
         b = game.bodies
         return kernels.observation(self._state(game), extra, b.base_z, b.face_offset, centre,
                                    scale)
+
+    def refresh(self, game: Any) -> bool:
+        """``Game._refresh`` compiled; False where it cannot run here (nothing was done)."""
+        kernels = self.functions()
+        if kernels is None:
+            return False
+        kernels.refresh(self._state(game), self._record)
+        return True
 
     def run(self, game: Any, steps: int) -> bool:
         """``steps`` physics steps of ``game``; False where the compiled steps cannot run
