@@ -506,19 +506,18 @@ def _observation_with(njit: Callable, sin: Callable, cos: Callable) -> Callable:
 
     # (NumPy's error model: a zero scale gives inf or NaN, as the arrays do)
     @njit(error_model="numpy")
-    def observation(a, extra, base_z, fo, centre, scale):
-        n = a.theta.shape[0]
+    def observation(theta_a, omega_a, base_x, fwd, m, extra, base_z, fo, centre, scale):
+        n = theta_a.shape[0]
         size = 17
         if centre.size != size or scale.size != size:
             raise ValueError("the observation's maps must have one entry per value")
         raw = np.empty(size)
         out = np.empty((n, size), np.float32)
-        m = a.motion
         for e in range(n):
-            theta, omega, f = a.theta[e, 0], a.omega[e, 0], a.fwd[e, 0]
+            theta, omega, f = theta_a[e, 0], omega_a[e, 0], fwd[e, 0]
             s, c = sin(theta), cos(theta)
             half = 0.5 * theta
-            raw[0], raw[1], raw[2] = a.base_x[e, 0], 0.0, base_z
+            raw[0], raw[1], raw[2] = base_x[e, 0], 0.0, base_z
             raw[3], raw[4], raw[5], raw[6] = cos(half), 0.0, sin(half), 0.0
             raw[7], raw[8], raw[9] = fo * omega * c, 0.0, -fo * omega * s
             raw[10], raw[11], raw[12] = f * m[0, e], f * m[1, e], m[2, e]
@@ -585,7 +584,7 @@ def _dry_run(kernels: Kernels) -> None:
     kernels.refresh(state._replace(theta=np.zeros((0, 1))), np.zeros(1, CONSTANTS_DTYPE))
     maps = np.ones(17)
     maps.flags.writeable = False
-    kernels.observation(state, f1, 0.0, 0.0, maps, maps)
+    kernels.observation(f, f, f, f, np.zeros((6, 1)), f1, 0.0, 0.0, maps, maps)
 
 
 # this process's compiled steps, made on first use
@@ -634,8 +633,9 @@ class SimpleKernel:
         if kernels is None or game.n_players != 1:
             return None
         b = game.bodies
-        return kernels.observation(self._state(game), extra, b.base_z, b.face_offset, centre,
-                                   scale)
+        # (only the arrays it reads: each array passed costs the call some time)
+        return kernels.observation(b.theta, b.omega, b.base_x, b.forward, game.shuttle.motion,
+                                   extra, b.base_z, b.face_offset, centre, scale)
 
     def refresh(self, game: Any) -> bool:
         """``Game._refresh`` compiled; False where it cannot run here (nothing was done)."""
