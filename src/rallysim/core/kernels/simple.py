@@ -535,8 +535,33 @@ def _observation_with(njit: Callable, sin: Callable, cos: Callable) -> Callable:
     return observation
 
 
+def _state_maker(numba: Any) -> Callable:
+    """A function that holds ``SimpleArrays`` in one Numba structure (a structref), read by
+    the same names: a call then passes one object where it would pass each array (which
+    costs the call time per array)."""
+    from numba.core import types
+    from numba.experimental import structref
+
+    @structref.register
+    class StateType(types.StructRef):
+        def preprocess_fields(self, fields: Any) -> tuple:
+            return tuple((name, types.unliteral(kind)) for name, kind in fields)
+
+    class State(structref.StructRefProxy):
+        pass
+
+    structref.define_proxy(State, StateType, list(SimpleArrays._fields))
+
+    def make(arrays: SimpleArrays) -> Any:
+        return State(*arrays)
+
+    return make
+
+
 class Kernels(NamedTuple):
     """The compiled functions of SIMPLE games."""
+
+    state: Callable  # ``_state_maker``'s
 
     steps: Callable  # ``_steps_with``'s
     refresh: Callable  # ``_steps_with``'s
@@ -564,7 +589,7 @@ def _compile() -> Kernels:
                              np.random.default_rng(0).uniform(-40.0, 40.0, 100_000)])
     if sines(angles).tobytes() != np.stack([np.sin(angles), np.cos(angles)]).tobytes():
         raise native.Unavailable("Numba's sine or cosine differ from NumPy's on this machine")
-    kernels = Kernels(*_steps_with(numba.njit, mj_step, sin, cos),
+    kernels = Kernels(_state_maker(numba), *_steps_with(numba.njit, mj_step, sin, cos),
                       _observation_with(numba.njit, sin, cos))
     _dry_run(kernels)
     return kernels
@@ -577,11 +602,13 @@ def _dry_run(kernels: Kernels) -> None:
     f, b, i = np.zeros((1, 1)), np.zeros((1, 1), bool), np.zeros((1, 1), np.int64)
     f1, b1, i1 = np.zeros(1), np.zeros(1, bool), np.zeros(1, np.int64)
     f3, q, box = np.zeros((1, 1, 3)), np.zeros((1, 3, 3)), np.zeros((3, 3))
-    state = SimpleArrays(f, f, f, f3, f, f, b, f, f, f, f, f, np.zeros((6, 1)), f1, f1, b1, b1,
-                         b, b, i1, i1, b1, q, q, f, box, box)
+    arrays = SimpleArrays(f, f, f, f3, f, f, b, f, f, f, f, f, np.zeros((6, 1)), f1, f1, b1,
+                          b1, b, b, i1, i1, b1, q, q, f, box, box)
+    state = kernels.state(arrays)
     events = SimpleEvents(b, f, f3, f3, b1, b1, np.zeros((1, 3)), i1, b1, i, i)
     kernels.steps(0, 0, state, events, np.zeros(1, CONSTANTS_DTYPE), 0)
-    kernels.refresh(state._replace(theta=np.zeros((0, 1))), np.zeros(1, CONSTANTS_DTYPE))
+    kernels.refresh(kernels.state(arrays._replace(theta=np.zeros((0, 1)))),
+                    np.zeros(1, CONSTANTS_DTYPE))
     maps = np.ones(17)
     maps.flags.writeable = False
     kernels.observation(f, f, f, f, np.zeros((6, 1)), f1, 0.0, 0.0, maps, maps)
@@ -600,7 +627,7 @@ class SimpleKernel:
         if self.asked == "compiled":
             Compiled.resolve("compiled")  # refused here, not at the first step
         self._set_constants(game)
-        self._arrays: SimpleArrays | None = None
+        self._arrays: Any = None  # ``Kernels.state`` of the game's ``arrays``
 
     def __getstate__(self) -> dict[str, Any]:
         return {**self.__dict__, "_arrays": None}
@@ -619,9 +646,9 @@ class SimpleKernel:
     def kernel(self) -> str:
         return "python" if self.functions() is None else "compiled"
 
-    def _state(self, game: Any) -> SimpleArrays:
+    def _state(self, game: Any, kernels: Kernels) -> Any:
         if self._arrays is None:
-            self._arrays = arrays(game)
+            self._arrays = kernels.state(arrays(game))
         return self._arrays
 
     def observation(self, game: Any, extra: np.ndarray, centre: np.ndarray,
@@ -642,7 +669,7 @@ class SimpleKernel:
         kernels = self.functions()
         if kernels is None:
             return False
-        kernels.refresh(self._state(game), self._record)
+        kernels.refresh(self._state(game, kernels), self._record)
         return True
 
     def run(self, game: Any, steps: int) -> bool:
@@ -654,7 +681,7 @@ class SimpleKernel:
         if (game.shaping, game.max_hits) != self._settings:
             self._set_constants(game)
         b, ev = game.bodies, game.events
-        kernels.steps(b.model._address, b.data._address, self._state(game),
+        kernels.steps(b.model._address, b.data._address, self._state(game, kernels),
                  SimpleEvents(ev.hit, ev.hit_speed, ev.hit_point, ev.hit_velocity,
                               ev.net_touch, ev.landed, ev.land_point, ev.land_side, ev.land_in,
                               ev.approach_good, ev.approach_bad),
