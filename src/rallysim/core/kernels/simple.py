@@ -17,7 +17,9 @@ and the compiled sine and cosine are probed against NumPy's before they are used
 (``native.Unavailable`` where they differ: the lanes code of ``Game`` runs instead).
 
 The state is read by name: ``SimpleArrays`` (views of the game's and bodies' arrays, and of
-MuJoCo's memory), ``SimpleEvents`` (the decision's events) and ``SimpleConstants``.
+MuJoCo's memory, held in one structref per game), ``SimpleEvents`` (the decision's events) and
+``SimpleConstants`` (passed as one record). MuJoCo's ``mj_step`` is looked up in one place,
+``_compile``.
 """
 
 from __future__ import annotations
