@@ -477,9 +477,11 @@ def _steps_with(njit: Callable, mj_step: Callable, sin: Callable, cos: Callable
                 judge_contacts(a, ev, k, e, p, -1, 0.0)
 
     @njit
-    def steps_of(model, data, a, ev, constants, steps):
-        """``steps`` physics steps of the batch, from and to its arrays (``constants``: a
-        record of ``CONSTANTS_DTYPE``)."""
+    def steps_of(model, data, a, events, constants, steps):
+        """``steps`` physics steps of the batch, from and to its arrays (``events``: the
+        arrays of ``SimpleEvents``, as a plain tuple, which costs a call less; ``constants``:
+        a record of ``CONSTANTS_DTYPE``)."""
+        ev = SimpleEvents(*events)
         k = constants[0]
         n, p = a.theta.shape
         for _ in range(steps):
@@ -607,7 +609,7 @@ def _dry_run(kernels: Kernels) -> None:
     arrays = SimpleArrays(f, f, f, f3, f, f, b, f, f, f, f, f, np.zeros((6, 1)), f1, f1, b1,
                           b1, b, b, i1, i1, b1, q, q, f, box, box)
     state = kernels.state(arrays)
-    events = SimpleEvents(b, f, f3, f3, b1, b1, np.zeros((1, 3)), i1, b1, i, i)
+    events = (b, f, f3, f3, b1, b1, np.zeros((1, 3)), i1, b1, i, i)
     kernels.steps(0, 0, state, events, np.zeros(1, CONSTANTS_DTYPE), 0)
     kernels.refresh(kernels.state(arrays._replace(theta=np.zeros((0, 1)))),
                     np.zeros(1, CONSTANTS_DTYPE))
@@ -630,9 +632,10 @@ class SimpleKernel:
             Compiled.resolve("compiled")  # refused here, not at the first step
         self._set_constants(game)
         self._arrays: Any = None  # ``Kernels.state`` of the game's ``arrays``
+        self._addresses = (0, 0)  # its MuJoCo model's and data's (made with ``_arrays``)
 
     def __getstate__(self) -> dict[str, Any]:
-        return {**self.__dict__, "_arrays": None}
+        return {**self.__dict__, "_arrays": None, "_addresses": (0, 0)}
 
     def _set_constants(self, game: Any) -> None:
         self.constants = constants(game)
@@ -651,6 +654,8 @@ class SimpleKernel:
     def _state(self, game: Any, kernels: Kernels) -> Any:
         if self._arrays is None:
             self._arrays = kernels.state(arrays(game))
+            b = game.bodies
+            self._addresses = b.model._address, b.data._address
         return self._arrays
 
     def observation(self, game: Any, extra: np.ndarray, centre: np.ndarray,
@@ -682,10 +687,11 @@ class SimpleKernel:
             return False
         if (game.shaping, game.max_hits) != self._settings:
             self._set_constants(game)
-        b, ev = game.bodies, game.events
-        kernels.steps(b.model._address, b.data._address, self._state(game, kernels),
-                 SimpleEvents(ev.hit, ev.hit_speed, ev.hit_point, ev.hit_velocity,
-                              ev.net_touch, ev.landed, ev.land_point, ev.land_side, ev.land_in,
-                              ev.approach_good, ev.approach_bad),
-                 self._record, steps)
+        ev = game.events
+        state = self._state(game, kernels)
+        model, data = self._addresses
+        kernels.steps(model, data, state,
+                      (ev.hit, ev.hit_speed, ev.hit_point, ev.hit_velocity, ev.net_touch,
+                       ev.landed, ev.land_point, ev.land_side, ev.land_in, ev.approach_good,
+                       ev.approach_bad), self._record, steps)
         return True
