@@ -7,7 +7,8 @@ import is, since it happens at the first step). Per env id: one process with an 
 cache (a temporary ``NUMBA_CACHE_DIR``: the first compile after install), then ``--repeats``
 processes that find that cache filled (every later start), as many with SciPy hidden where it
 is installed (a core install has none; with it, Numba imports ``scipy.linalg`` at its first
-use), and one with the Python kernel (``RALLYSIM_KERNEL=python``: no Numba at all) for scale.
+use). Each process also counts the functions Numba compiled in that window: none, once the
+cache is filled.
 
 Run: ``python benchmarks/first_step.py [--repeats 5] [--json PATH]``
 """
@@ -55,24 +56,24 @@ def child(env_id: str) -> dict:
     import rallysim  # noqa: F401  (registers the ids)
 
     began = time.perf_counter()
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # (v0's "out of date" notice)
-        env = gym.make(env_id)
-    env.reset(seed=0)
-    env.step(np.zeros(env.action_space.shape, env.action_space.dtype))
+    from numba.core import event  # (Numba's import counts: the first step would import it)
+
+    with event.install_recorder("numba:compile") as compiles:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # (v0's "out of date" notice)
+            env = gym.make(env_id)
+        env.reset(seed=0)
+        env.step(np.zeros(env.action_space.shape, env.action_space.dtype))
     first_step = time.perf_counter() - began
-    from rallysim.core import one_game, one_humanlike
-
-    kernel = one_humanlike.Compiled if "HumanLike" in env_id else one_game.Compiled
-    return {"first_step_s": first_step, "compiled": kernel.function is not None,
-            "why_not": kernel.why_not, "scipy_loaded": "scipy" in sys.modules,
-            **kernel.cache_stats()}
+    # (events come in start and end pairs: count the starts)
+    compiled = sum(1 for e in compiles.buffer if e[1].is_start)
+    return {"first_step_s": first_step, "functions_compiled": compiled,
+            "scipy_loaded": "scipy" in sys.modules}
 
 
-def run_child(env_id: str, cache_dir: str, kernel: str = "auto", hide_scipy: bool = False
-              ) -> dict:
+def run_child(env_id: str, cache_dir: str, hide_scipy: bool = False) -> dict:
     """``child`` in a fresh process, with the whole process's wall time added."""
-    env = dict(os.environ, NUMBA_CACHE_DIR=cache_dir, RALLYSIM_KERNEL=kernel,
+    env = dict(os.environ, NUMBA_CACHE_DIR=cache_dir,
                **{HIDE_SCIPY: "1" if hide_scipy else "0"})
     began = time.perf_counter()
     proc = subprocess.run([sys.executable, __file__, "--child", env_id], env=env,
@@ -90,13 +91,10 @@ def measure(env_id: str, repeats: int) -> dict:
             warm.append(run_child(env_id, cache_dir))
             if SCIPY:
                 core.append(run_child(env_id, cache_dir, hide_scipy=True))
-        python = run_child(env_id, cache_dir, "python")
     return {"cold": cold, "warm": warm, "warm_median_s": _median(warm),
             "warm_max_s": max(w["first_step_s"] for w in warm),
             "warm_without_scipy": core, "warm_without_scipy_median_s": _median(core),
-            "python": python,
-            "warm_loaded_from_cache": all(w["compiled"] and w["misses"] == 0 and w["hits"] > 0
-                                          for w in warm + core)}
+            "warm_loaded_from_cache": all(w["functions_compiled"] == 0 for w in warm + core)}
 
 
 def _median(runs: list[dict]) -> float | None:
@@ -129,13 +127,12 @@ def main() -> None:
     results = {env_id: measure(env_id, args.repeats) for env_id in IDS}
     print(f"{info['cpu_count']} CPUs ({info['cpu']}), Python {info['python']}, "
           f"Numba {info['numba']}, load average {info['load_average'][0]:.2f}\n")
-    print("| env id | cold cache | warm cache (median, max) | warm, no SciPy (median) "
-          "| Python kernel |\n|---|---:|---:|---:|---:|")
+    print("| env id | cold cache | warm cache (median, max) | warm, no SciPy (median) |\n"
+          "|---|---:|---:|---:|")
     for env_id, r in results.items():
         core = r["warm_without_scipy_median_s"]
         print(f"| {env_id} | {r['cold']['first_step_s']:.2f} s | {r['warm_median_s']:.2f} s, "
-              f"{r['warm_max_s']:.2f} s | {'-' if core is None else f'{core:.2f} s'} "
-              f"| {r['python']['first_step_s']:.2f} s |")
+              f"{r['warm_max_s']:.2f} s | {'-' if core is None else f'{core:.2f} s'} |")
     for env_id, r in results.items():
         print(f"{env_id}: every warm start loaded its kernel from the cache: "
               f"{r['warm_loaded_from_cache']}")

@@ -1,4 +1,4 @@
-"""What the tests of the compiled steps of one game (``tests/test_one_game.py``,
+"""What the tests of the compiled kernels (``tests/test_simple_kernel.py``,
 ``tests/test_one_humanlike.py``) share."""
 
 from __future__ import annotations
@@ -9,7 +9,8 @@ from typing import Any
 import numpy as np
 import pytest
 
-from rallysim.core import native, one_game
+from rallysim.core import native
+from rallysim.core.kernels import simple
 
 
 def needs_compiled(kernel: native.Kernel) -> pytest.MarkDecorator:
@@ -20,7 +21,7 @@ def needs_compiled(kernel: native.Kernel) -> pytest.MarkDecorator:
         reason=f"no compiled kernel: {kernel.why_not}")
 
 
-NEEDS_COMPILED_SIMPLE = needs_compiled(one_game.Compiled)
+NEEDS_COMPILED_SIMPLE = needs_compiled(simple.Compiled)
 
 
 def same_bits(x: Any, y: Any) -> bool:

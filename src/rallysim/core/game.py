@@ -18,8 +18,9 @@ from rallysim.core import rules
 from rallysim.core.bodies import PlayerBodies, SimpleBodies
 from rallysim.core.court import Court
 from rallysim.core.events import EventRows, Events
+from rallysim.core.kernels import simple
 from rallysim.core.lanes import ARRAYS, SCALARS, ArrayLanes, Ops, ScalarLanes
-from rallysim.core.one_game import OneGame, OneSimpleGame
+from rallysim.core.one_game import OneGame
 from rallysim.core.one_humanlike import OneHumanLikeGame
 from rallysim.core.serve import MachineServe, Serve
 from rallysim.core.shuttle import RADIUS, ShuttleState, make_shuttle_model
@@ -106,18 +107,31 @@ class Game:
         self._views: dict[str, np.ndarray] | None = None
         self._vectors: dict[str, np.ndarray] | None = None
         self._array_lanes: ArrayLanes | None = None
-        # one game of one player with the paper flight: its physics steps fused
+        # SIMPLE players: every batch's physics steps compiled (rallysim.core.kernels.simple)
+        self._simple: simple.SimpleKernel | None = (
+            simple.SimpleKernel(self) if simple.fits(self) else None)
+        # one game of one HUMAN-LIKE player with the paper flight: its physics steps fused
         self._one: OneGame | None = None
-        if OneSimpleGame.fits(self):
-            self._one = OneSimpleGame(self)
-        elif OneHumanLikeGame.fits(self):
+        if self._simple is None and OneHumanLikeGame.fits(self):
             self._one = OneHumanLikeGame(self)
 
     @property
     def kernel(self) -> str:
         """What runs this game's physics steps in this process: "compiled" (a compiled kernel
         of one game, ``rallysim.core.native``) or "python"."""
+        if self._simple is not None:
+            return self._simple.kernel
         return "python" if self._one is None else self._one.kernel_in(self)
+
+    def observation(self, extra: np.ndarray, centre: np.ndarray, scale: np.ndarray
+                    ) -> np.ndarray | None:
+        """One-player games' observations (``simple_obs.raw_observation_lanes``) followed by
+        ``extra`` (N,), mapped by ``centre`` and ``scale`` and clipped into [-1, 1], float32
+        (N, 17), where a compiled kernel gives them; else None (``ops.observations`` of the
+        lanes gives the same bits)."""
+        if self._simple is None:
+            return None
+        return self._simple.observation(self, extra, centre, scale)
 
     # -- the rally's state (RallyState), as the game's own arrays --------------------------------
     @property
@@ -238,6 +252,8 @@ class Game:
     def _refresh(self) -> None:
         """Recompute what the next physics step starts from (the shuttle in the faces' frames,
         the shaping's gaps) after the state was set by hand."""
+        if self._simple is not None and self._simple.refresh(self):
+            return
         g = self._lanes(self.ops)
         own = self._observe(g, self.ops)
         g.gap = abs(own[0] - g.body.base_x)
@@ -300,6 +316,8 @@ class Game:
             g.reload(self.lane_views(), self.vector_views())
 
     def _run(self, steps: int) -> None:
+        if self._simple is not None and self._simple.run(self, steps):
+            return
         if self._one is not None:
             self._one.run(self, steps)
         else:

@@ -254,7 +254,7 @@ def apart(q0: tuple, q1: tuple, lo: list, hi: list) -> bool:
 
 def step_apart_with(apart: Callable) -> Callable:
     """``step_apart`` built on ``apart`` (a compiled kernel builds it on a compiled ``apart``,
-    ``rallysim.core.one_game``)."""
+    ``rallysim.core.one_humanlike``)."""
 
     def step_apart(f0: tuple, f1: tuple, w0: tuple, w1: tuple, top: float, net_lo: Any,
                    net_hi: Any, face_lo: Any, face_hi: Any) -> bool:

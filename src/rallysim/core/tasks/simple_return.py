@@ -121,10 +121,9 @@ class ReturnTask:
 
     def observe(self) -> np.ndarray:
         game = self.game
-        if game._one is not None:  # one game: compiled where it can be (rallysim.core.one_game)
-            compiled = game._one.observation(game, self.goal, OBS_CENTRE, OBS_SCALE)
-            if compiled is not None:
-                return compiled
+        compiled = game.observation(self.goal, OBS_CENTRE, OBS_SCALE)
+        if compiled is not None:
+            return compiled
         lanes = [*raw_observation_lanes(game), game.ops.read(self.goal[:, None])]
         return game.ops.observations(lanes, (self.n, 1), OBS_CENTRE, OBS_SCALE)[:, 0]
 

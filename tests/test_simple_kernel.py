@@ -1,0 +1,308 @@
+"""The compiled physics steps of SIMPLE games (``rallysim.core.kernels.simple``): they give the
+lanes code's bits for every batch size, player count, flight model, shaping and hit cap,
+through hits, net touches, landings in and out, held and frozen games; a batch's env i replays
+a single env seeded s + i; and the judging's numbers are as the rules say."""
+
+from __future__ import annotations
+
+import copy
+import pickle
+
+import numpy as np
+import pytest
+
+from rallysim.core import native
+from rallysim.core.bodies import SimpleBodies
+from rallysim.core.court import Court
+from rallysim.core.game import PHYSICS_DT, Game
+from rallysim.core.humanlike import HumanLikeBodies
+from rallysim.core.kernels import simple
+from rallysim.core.shuttle import RADIUS
+from rallysim.envs.simple_return_v0 import SimpleReturnEnv, SimpleReturnVectorEnv
+from tests.kernels import NEEDS_COMPILED_SIMPLE, play, same_bits
+
+pytestmark = NEEDS_COMPILED_SIMPLE
+
+
+def _game_state(game: Game) -> list[np.ndarray]:
+    """Every array of the game's state and of its last decision's events."""
+    b, sh, st, d = game.bodies, game.shuttle, game.state, game.bodies.data
+    return [d.qpos, d.qvel, d.ctrl, d.mocap_pos, b.base_x, b._theta0, b.base_moved, b.target,
+            b.torque_limit, sh.motion, sh.shot_time, sh.shot_speed,
+            game._q[:, :game.n_players], game._gap, *vars(st).values(),
+            *vars(game.events).values()]
+
+
+def _lanes(game: Game) -> Game:
+    """``game`` stepped by the lanes code (``Game._step_lanes``) instead of the kernel."""
+    game._simple = None
+    return game
+
+
+def _swing_at(game: Game, rng: np.random.Generator) -> np.ndarray:
+    """Actions that meet many shuttles: each arm swings toward the shuttle's height, its base
+    toward the shuttle's x, with noise."""
+    n, p = game.n_envs, game.n_players
+    own_x = game._fwd * game.shuttle.pos[:, 0][:, None]
+    b = game.bodies
+    a = np.empty((n, p, 3))
+    a[..., 0] = np.sign(rng.uniform(-1, 1, (n, p)))
+    a[..., 1] = rng.uniform(-0.2, 1.0, (n, p))
+    a[..., 2] = np.clip(own_x - b.base_x + rng.normal(0, 0.5, (n, p)), -1, 1)
+    return a
+
+
+@pytest.mark.parametrize("shuttle", ["paper", "paper-alg1", "aero"])
+@pytest.mark.parametrize("n, p", [(1, 1), (5, 1), (1, 2), (4, 2)])
+def test_compiled_steps_give_the_lanes_codes_bits(n, p, shuttle):
+    seen = dict.fromkeys(["hit", "net_touch", "landed", "capped", "frozen", "held",
+                          "stopped"], 0)
+    for shaping, max_hits in ((True, 1), (False, None)):
+        games = [Game(n, p, shuttle=shuttle, seed=9, shaping=shaping, max_hits=max_hits)
+                 for _ in range(2)]
+        compiled, lanes = games[0], _lanes(games[1])
+        assert compiled.kernel == "compiled"
+        rng = np.random.default_rng(n * 10 + p)
+        for g in games:
+            g.reset(np.arange(n), receiver=np.arange(n) % p)
+        for step in range(250):
+            a = _swing_at(compiled, rng) if step % 2 else rng.uniform(-1, 1, (n, p, 3))
+            active = rng.uniform(size=n) > 0.25 if step % 4 == 0 else None
+            if step % 10 == 5:  # a shuttle sent at the net from either side, now and then
+                e, side = rng.integers(n), rng.choice([-1.0, 1.0])
+                pos = side * 0.5, rng.uniform(-1, 1), rng.uniform(1.0, 1.8)
+                vel = -side * rng.uniform(5, 20), 0.0, rng.uniform(-1, 1)
+                for g in games:
+                    g.shuttle.pos[e], g.shuttle.vel[e] = pos, vel
+                    g._refresh()
+            in_play = compiled.in_play.copy()
+            for g in games:
+                g.step(a, active)
+            for x, y in zip(_game_state(compiled), _game_state(lanes), strict=True):
+                assert same_bits(x, y), (step, shaping)
+            ev = compiled.events
+            seen["hit"] += int(ev.hit.sum())
+            seen["net_touch"] += int(ev.net_touch.sum())
+            seen["landed"] += int(ev.landed.sum())  # (in and out: both sides' zones vary)
+            seen["capped"] += int((compiled.hits == 1).sum()) if max_hits else 0
+            seen["frozen"] += 0 if active is None else int((~active).sum())
+            seen["held"] += int((~in_play).sum())
+            seen["stopped"] += int((abs(compiled.bodies.theta) == compiled.bodies.limit).sum())
+            # (games out of play wait a few decisions: held steps)
+            done = np.flatnonzero((~compiled.in_play & (rng.uniform(size=n) < 0.3))
+                                  | (rng.uniform(size=n) < 0.02))
+            if len(done):
+                base_x = rng.uniform(-6.0, -1.0, (len(done), p))
+                for g in games:
+                    g.reset(done, receiver=done % p, base_x=base_x)
+    assert min(seen.values()) > 0, seen
+
+
+def test_a_batchs_env_i_replays_a_single_env_seeded_s_plus_i():
+    batch = SimpleReturnVectorEnv(3, autoreset_mode="same_step")
+    singles = [SimpleReturnEnv() for _ in range(3)]
+    obs_b, _ = batch.reset(seed=20)
+    for i, env in enumerate(singles):
+        assert same_bits(env.reset(seed=20 + i)[0], obs_b[i])
+    rng = np.random.default_rng(1)
+    for step in range(300):
+        a = rng.uniform(-1, 1, (3, 3)).astype(np.float32)
+        obs_b, r_b, term_b, trunc_b, _ = batch.step(a)
+        for i, env in enumerate(singles):
+            o, r, term, trunc, _ = env.step(a[i])
+            assert same_bits(np.float64(r), r_b[i]) and (term, trunc) == (term_b[i], trunc_b[i])
+            if term or trunc:
+                o, _ = env.reset()
+            assert same_bits(o, obs_b[i]), (step, i)
+
+
+def _one_shuttle(shuttle: str = "paper", p: int = 1, **kw) -> Game:
+    """One game whose shuttle is placed by hand (its arm down and still, nobody armed)."""
+    g = Game(1, p, shuttle=shuttle, seed=0, **kw)
+    g.reset(np.array([0]))
+    g.state.armed[:] = False
+    return g
+
+
+def _place(g: Game, pos: tuple, vel: tuple) -> None:
+    g.shuttle.pos[0], g.shuttle.vel[0] = pos, vel
+    g._refresh()
+
+
+def test_a_landing_is_interpolated_judged_and_stops_play():
+    g = _one_shuttle()
+    _place(g, (2.0, 1.0, 0.05), (3.0, 0.5, -4.0))
+    p0, v = g.shuttle.pos[0].copy(), g.shuttle.vel[0].copy()
+    g._physics_step()
+    # the paper flight's step, then the point where the centre crossed z = 0
+    v_new = v.copy()
+    v_new[2] -= 9.81 * PHYSICS_DT
+    v_new *= 1.0 - 1.5 * PHYSICS_DT
+    p1 = p0 + v_new * PHYSICS_DT
+    t = (0.0 - p0[2]) / (p1[2] - p0[2])
+    ev = g.events
+    assert ev.landed[0] and not g.in_play[0] and not g.armed.any()
+    np.testing.assert_allclose(ev.land_point[0], [*(p0[:2] + t * (p1[:2] - p0[:2])), 0.0],
+                               atol=1e-12)
+    assert ev.land_side[0] == 1 and ev.land_in[0]  # 2 m beyond the net, in the paper zone
+    assert (g.shuttle.vel[0] == 0.0).all()
+    held = g.shuttle.pos[0].copy()
+    g._physics_step()  # out of play: held where it landed
+    assert (g.shuttle.pos[0] == held).all() and not g.events.landed[1:].any()
+
+
+def test_landing_out_sides_and_the_full_court():
+    court = Court.from_mjcf()
+    for shuttle, x, y, side, inside in (("paper", -7.0, 0.0, 0, False),
+                                        ("paper", 0.2, 0.0, 1, False),  # before the zone
+                                        ("aero", 0.2, 0.0, 1, True),  # the full half court
+                                        ("aero", 3.0, court.half_width + 0.1, 1, False)):
+        g = _one_shuttle(shuttle)
+        _place(g, (x, y, 0.01), (0.0, 0.0, -1.0))
+        g._physics_step()
+        assert g.events.landed[0] and g.events.land_side[0] == side, shuttle
+        assert g.events.land_in[0] == inside, (shuttle, x, y)
+
+
+def test_the_net_rearms_two_players_and_blocks_an_aero_shuttle():
+    court = Court.from_mjcf()
+    g = _one_shuttle(p=2)
+    _place(g, (-0.3, 0.0, 1.0), (10.0, 0.0, 0.0))
+    g._physics_step()
+    assert g.events.net_touch[0] and g.net_touched[0] and g.armed.all()
+    assert g.shuttle.vel[0, 0] > 0  # the paper net only notes the touch
+    g = _one_shuttle("aero")
+    _place(g, (-0.3, 0.2, 1.0), (10.0, 0.0, 0.0))
+    g._physics_step()
+    assert g.events.net_touch[0] and not g.armed.any()  # (one player: nobody re-armed)
+    face = court.net_half_thickness + RADIUS
+    assert g.shuttle.pos[0, 0] == -face and g.shuttle.vel[0, 0] == 0.0
+    g._physics_step()  # resting against the net: it only falls
+    assert g.shuttle.pos[0, 0] == -face and not g.events.net_touch[1:].any()
+
+
+def test_a_hit_sends_the_shuttle_at_twice_the_face_velocity_and_passes_the_turn():
+    g = _one_shuttle(p=2)
+    b = g.bodies
+    b.theta[0, 0], b.omega[0, 0] = 0.3, 6.0
+    b.target[0, 0], b.torque_limit[0, 0], b._neg_limit[0, 0] = 0.3 + 6.0 * PHYSICS_DT, 0.0, -0.0
+    g.state.armed[0, 0] = True
+    # the shuttle just ahead of the face centre's path, in player 0's frame
+    s, c = np.sin(0.33), np.cos(0.33)
+    centre = (b.base_x[0, 0] + b.face_offset * s, 0.0, b.pivot_z + b.face_offset * c)
+    _place(g, (centre[0] + 0.05, 0.0, centre[2]), (0.0, 0.0, 0.0))
+    g._physics_step()
+    ev = g.events
+    assert ev.hit[0, 0] and not ev.hit[0, 1] and g.hits[0] == 1 and g.last_hitter[0] == 0
+    assert g.armed[0].tolist() == [False, True] and g.has_hit[0].tolist() == [True, False]
+    w = b.omega[0, 0]
+    assert ev.hit_speed[0, 0] == pytest.approx(b.face_offset * abs(w), rel=1e-12)
+    racket = ev.hit_velocity[0, 0]
+    assert racket[1] == 0.0 and np.hypot(racket[0], racket[2]) == pytest.approx(
+        ev.hit_speed[0, 0], rel=1e-12)
+    np.testing.assert_array_equal(g.shuttle.vel[0], 2.0 * racket)  # player 0: world = own
+    assert g.shuttle.shot_speed[0] == pytest.approx(2.0 * ev.hit_speed[0, 0], rel=1e-12)
+
+
+def test_the_hit_cap_ends_the_judging_of_a_rally():
+    g = _one_shuttle(max_hits=1)
+    g.state.hits[0] = 1
+    _place(g, (2.0, 0.0, 0.01), (0.0, 0.0, -1.0))
+    g._physics_step()  # below the floor, but the rally reached its cap: nothing counts
+    assert not g.events.landed[0] and g.in_play[0]
+
+
+def test_the_kernel_runs_for_simple_bodies_of_every_batch_and_flight():
+    for n, p in ((1, 1), (3, 1), (1, 2), (64, 2)):
+        for shuttle in ("paper", "paper-alg1", "aero"):
+            assert Game(n, p, shuttle=shuttle).kernel == "compiled"
+    assert Game(1, 1, bodies=HumanLikeBodies(1, 1))._simple is None
+
+    class Bodies(SimpleBodies):  # a player model built on SIMPLE's may change its motion
+        pass
+
+    assert Game(2, 1, bodies=Bodies(2, 1))._simple is None
+
+
+def test_the_kernel_chosen(monkeypatch):
+    monkeypatch.setattr(native, "KERNEL", "python")  # the default, where none is given
+    assert Game(2, 1).kernel == "python"
+    with pytest.raises(ValueError, match=r"unknown kernel 'numba'"):
+        simple.SimpleKernel(Game(1, 1), "numba")
+
+
+def test_where_the_compiled_steps_cannot_be_had_the_lanes_code_runs_alike(monkeypatch):
+    env = SimpleReturnVectorEnv(2)
+    env.reset(seed=2)
+    data = pickle.dumps(env)
+    rng = np.random.default_rng(5)
+    actions = rng.uniform(-1, 1, (200, 2, 3)).astype(np.float32)
+    played = [env.step(a) for a in actions]
+    for name, value in (("tried", True), ("function", None), ("why_not", "a test")):
+        monkeypatch.setattr(simple.Compiled, name, value)
+    again = pickle.loads(data)
+    assert again.task.game.kernel == "python"
+    with pytest.raises(RuntimeError, match="compiled kernel cannot run here: a test"):
+        simple.SimpleKernel(again.task.game, "compiled")
+    for a, one in zip(actions, played, strict=True):
+        two = again.step(a)
+        assert all(same_bits(x, y) for x, y in zip(one[:4], two[:4], strict=True))
+
+
+def test_a_copy_mid_episode_keeps_replaying():
+    env = SimpleReturnEnv(incoming="mixed")
+    rng = np.random.default_rng(0)
+    env.reset(seed=4)
+    for _ in range(7):
+        env.step(rng.uniform(-1, 1, 3).astype(np.float32))
+    for twin in (pickle.loads(pickle.dumps(env)), copy.deepcopy(env)):
+        assert twin.task.game.bodies.data._address != env.task.game.bodies.data._address
+    twin = pickle.loads(pickle.dumps(env))
+    for _ in range(300):
+        a = rng.uniform(-1, 1, 3).astype(np.float32)
+        one, two = play(env, a), play(twin, a)
+        assert same_bits(one[0], two[0]) and one[1] == two[1]
+
+
+def test_the_compiled_observation_is_the_lanes_codes():
+    """States well outside the observation's ranges, signed zeros and non-finite numbers: the
+    compiled observation gives the lanes code's bits (clipped as np.clip clips, NaN kept)."""
+    env = SimpleReturnVectorEnv(3)
+    env.reset(seed=0)
+    task, game = env.task, env.task.game
+    b, sh = game.bodies, game.shuttle
+    kernel = game._simple
+    rng = np.random.default_rng(0)
+    special = [0.0, -0.0, np.nan, np.inf, -np.inf, 1e300, -1.0, 1.0]
+    clipped = {"low": 0, "high": 0, "nan": 0}
+    for _ in range(1000):
+        values = rng.normal(0.0, 10.0 ** rng.integers(-2, 3), (3, 10))
+        # (not the arm angle: the probe holds sine and cosine to NumPy's on finite angles)
+        values[:, rng.integers(1, 10)] = special[rng.integers(len(special))]
+        b.theta[:, 0], b.omega[:, 0], b.base_x[:, 0] = values[:, :3].T
+        sh.motion[:, :] = 10.0 * values[:, 3:9].T
+        task.goal[:] = values[:, 9]
+        game._simple = None
+        with np.errstate(invalid="ignore"):  # NumPy's sine of inf warns; it is NaN
+            expected = task.observe()
+        game._simple = kernel
+        got = task.observe()
+        assert same_bits(got, expected), values
+        clipped["low"] += int((got == -1.0).sum())
+        clipped["high"] += int((got == 1.0).sum())
+        clipped["nan"] += int(np.isnan(got).sum())
+    assert min(clipped.values()) > 100, clipped
+
+
+def test_the_dry_run_compiled_what_a_game_passes():
+    env = SimpleReturnEnv()
+    env.reset(seed=1)
+    for _ in range(50):
+        play(env, np.zeros(3, np.float32))
+    for n, p in ((3, 2), (2, 1)):
+        g = Game(n, p, shuttle="aero", max_hits=2, shaping=True)
+        g.reset(np.arange(n))
+        g.step(np.zeros((n, p, 3)), np.ones(n, bool))
+    # one signature each: the game's arrays are of the types the dry run compiled for
+    assert len(simple.Compiled.function.steps.signatures) == 1
+    assert len(simple.Compiled.function.observation.signatures) == 1
