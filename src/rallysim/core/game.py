@@ -68,6 +68,7 @@ class Game:
                  max_hits: int | None = None) -> None:
         self.n_envs, self.n_players = n_envs, n_players
         self.max_hits = max_hits
+        self.dt = PHYSICS_DT  # seconds per physics step
         self.court = Court.from_mjcf()
         self.flight = make_shuttle_model(shuttle, PHYSICS_DT)
         self.rules = rules.Rules.derive(self.flight, n_players)

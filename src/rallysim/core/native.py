@@ -1,13 +1,14 @@
-"""What the compiled kernels of one game share: the choice of kernel, Numba, MuJoCo's C
-library and NumPy's own LAPACK.
+"""What the compiled kernels share: the choice of kernel, Numba, MuJoCo's C library and
+NumPy's own LAPACK.
 
-A compiled kernel (``rallysim.core.one_game`` for one SIMPLE game, ``rallysim.core.one_humanlike``
-for one HUMAN-LIKE player) restates Python code that a batch also runs, and must give its bits.
-So each piece it calls from C is the very code the Python path calls: MuJoCo's library of the
-bindings' own version, and LAPACK's ``dgesv`` from the library NumPy's ``linalg.solve`` calls;
-and what is compiled anew (sine, cosine, sums) is probed against NumPy before it is used.
-Where any of that cannot be had, ``Kernel`` says why and the Python path runs instead, with the
-same results.
+The compiled steps (``rallysim.core.kernels.simple`` for SIMPLE games,
+``rallysim.core.humanlike_step`` for HUMAN-LIKE players, ``rallysim.core.one_humanlike`` for one
+HUMAN-LIKE game's free steps) must give the bits of the NumPy code they replaced, which the
+golden episodes recorded. So each piece they call from C is the very code NumPy's path called:
+MuJoCo's library of the bindings' own version, and LAPACK's ``dgesv`` from the library NumPy's
+``linalg.solve`` calls; the compiled sine and cosine are probed against NumPy's before use.
+Where the SIMPLE kernel cannot be had, ``Kernel`` says why and the lanes code runs instead,
+with the same results.
 
 The kernels are compiled once per machine and kept in Numba's cache (``jit``): the C functions
 are named as symbols in the machine code (``c_function``), found at load time in the libraries
@@ -15,9 +16,9 @@ are named as symbols in the machine code (``c_function``), found at load time in
 probes still run in every process (on the cached code), since NumPy's own choice of code
 depends on the process's settings.
 
-``KERNEL`` (or the environment variable ``RALLYSIM_KERNEL``) chooses: ``auto`` (the compiled
-kernels where they can be had, Python elsewhere), ``python`` or ``compiled`` (refused where
-they cannot run).
+``KERNEL`` (or the environment variable ``RALLYSIM_KERNEL``) chooses for SIMPLE games: ``auto``
+(the compiled kernel where it can be had, Python elsewhere), ``python`` or ``compiled``
+(refused where it cannot run).
 """
 
 from __future__ import annotations

@@ -31,6 +31,7 @@ from typing import Any, NamedTuple, get_type_hints
 import numpy as np
 
 from rallysim.core import native
+from rallysim.core.kernels.simple_arrays import SimpleArrays
 from rallysim.core.shuttle import GRAVITY, RADIUS, AeroShuttle, PaperAlg1Shuttle, PaperShuttle
 
 # flight models (``SimpleConstants.flight``)
@@ -39,38 +40,6 @@ FLIGHTS = {PaperShuttle: PAPER, PaperAlg1Shuttle: PAPER_ALG1, AeroShuttle: AERO}
 # net rules (``SimpleConstants.net``), as ``rules.NET_RULES`` names them
 NET_CODES = {"rearm": 0, "block": 1, "note": 2}
 REARM, BLOCK = NET_CODES["rearm"], NET_CODES["block"]
-
-
-class SimpleArrays(NamedTuple):
-    """Every array of the state the steps read or write ((N, P) unless said otherwise)."""
-
-    theta: np.ndarray  # arm angles (MuJoCo's qpos)
-    omega: np.ndarray  # arm rates (qvel)
-    torque: np.ndarray  # arm drive (ctrl)
-    mocap: np.ndarray  # (N, P, 3) world base positions (mocap_pos)
-    base_x: np.ndarray  # own-frame base x
-    theta0: np.ndarray  # arm angles at the start of the last physics step
-    base_moved: np.ndarray  # bool: the base moved in the last physics step
-    base_step: np.ndarray  # metres per physics step (the movement action)
-    target: np.ndarray  # arm target angles
-    neg_limit: np.ndarray  # -torque_limit
-    torque_limit: np.ndarray
-    fwd: np.ndarray  # own x = fwd * world x
-    motion: np.ndarray  # (6, N) shuttle position and velocity
-    shot_speed: np.ndarray  # (N,)
-    shot_time: np.ndarray  # (N,)
-    in_play: np.ndarray  # (N,) bool
-    active: np.ndarray  # (N,) bool: not held by ``Game.step``'s ``active``
-    armed: np.ndarray  # bool
-    has_hit: np.ndarray  # bool
-    last_hitter: np.ndarray  # (N,) int
-    hits: np.ndarray  # (N,) int
-    net_touched: np.ndarray  # (N,) bool
-    q: np.ndarray  # (N, P + 2, 3) the tested points: the shuttle in each face's frame, the world
-    q0: np.ndarray  # (N, P + 2, 3) scratch: ``q`` at a physics step's start
-    gap: np.ndarray  # |base x - shuttle x| (own frame) for the shaping
-    lo: np.ndarray  # (P + 2, 3) the tested boxes: the faces (own frames), the net, the floor
-    hi: np.ndarray
 
 
 class SimpleEvents(NamedTuple):
@@ -135,15 +104,14 @@ def as_record(numbers: SimpleConstants) -> np.ndarray:
 
 def constants(game: Any) -> SimpleConstants:
     """``game``'s constants (its bodies are ``SimpleBodies``)."""
-    from rallysim.core.game import PHYSICS_DT  # (game imports this module)
-
     b, flight, court = game.bodies, game.flight, game.court
+    dt = game.dt
     kind = FLIGHTS[type(flight)]
     lo, hi = b.base_range
     return SimpleConstants(
         base_lo=float(lo), base_hi=float(hi), inv_dt=1.0 / b.dt, max_rate=float(b.max_rate),
         drive=b.inertia / b.dt, limit=float(b.limit), face_offset=float(b.face_offset),
-        pivot_z=float(b.pivot_z), dt=PHYSICS_DT, fall=GRAVITY * PHYSICS_DT,
+        pivot_z=float(b.pivot_z), dt=dt, fall=GRAVITY * dt,
         factor=float(getattr(flight, "factor", 0.0)), flight=kind,
         window=float(PaperAlg1Shuttle.window), aero_k=float(getattr(flight, "k", 0.0)),
         max_decay=float(AeroShuttle.max_decay_per_substep), half_gravity=0.5 * GRAVITY,

@@ -14,7 +14,7 @@ from numba.core import types
 from numba.experimental import structref
 
 from rallysim.core import native
-from rallysim.core.kernels.simple import SimpleArrays
+from rallysim.core.kernels.simple_arrays import SimpleArrays
 
 
 @structref.register
