@@ -1,4 +1,4 @@
-"""Numba's cache keeps the compiled kernels of one game across processes
+"""Numba's cache keeps the compiled kernels across processes
 (``rallysim.core.native.jit``): a process that finds them cached loads them, compiles nothing
 (the probes included) and steps to the bits of the process that compiled them."""
 
@@ -37,6 +37,8 @@ with event.install_recorder("numba:run_pass") as passes:
                           + bytes([terminated, truncated]))
             if terminated or truncated:
                 obs, _ = env.reset()
+        # (the compiled steps ran: not a fallback that would pass unseen)
+        assert env.unwrapped.task.game.kernel == "compiled", env_id
         out[env_id] = digest.hexdigest()
 out["passes"] = len(passes.buffer)
 print(json.dumps(out))

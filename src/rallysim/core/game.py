@@ -58,8 +58,10 @@ class Game:
     the hit that reaches it ends the judging of that rally until its next serve (no later hit,
     net touch or landing counts, even within the same decision); None: no cap.
 
-    The physics steps run on lanes (``rallysim.core.lanes``): NumPy arrays over a batch, Python
-    numbers for one game of one player (``ops``), with the same rule code for both.
+    SIMPLE games run their physics steps, judging included, in one compiled kernel for every
+    batch size (``rallysim.core.kernels.simple``); other bodies (HUMAN-LIKE, whose motion is
+    compiled by the bodies themselves) and SIMPLE games where that kernel cannot be had run on
+    lanes (``rallysim.core.lanes``), with the same results.
     """
 
     def __init__(self, n_envs: int, n_players: int = 1, shuttle: str = "paper",
@@ -118,8 +120,9 @@ class Game:
 
     @property
     def kernel(self) -> str:
-        """What runs this game's physics steps in this process: "compiled" (a compiled kernel
-        of one game, ``rallysim.core.native``) or "python"."""
+        """What runs this game's rules between physics steps in this process: "compiled" (a
+        compiled kernel: ``rallysim.core.kernels.simple``, or one HUMAN-LIKE game's fused steps)
+        or "python" (the lanes code)."""
         if self._simple is not None:
             return self._simple.kernel
         return "python" if self._one is None else self._one.kernel_in(self)

@@ -84,13 +84,6 @@ class Kernel:
             raise RuntimeError(f"the compiled kernel cannot run here: {self.why_not}")
         return function
 
-    def cache_stats(self) -> dict[str, int]:
-        """How many signatures of the built kernel's compiled functions Numba loaded from its
-        cache ("hits") and compiled in this process ("misses"): zeros before it is built."""
-        stats = [f.stats for f in (self.function or ()) if hasattr(f, "stats")]
-        return {"hits": sum(len(s.cache_hits) for s in stats),
-                "misses": sum(len(s.cache_misses) for s in stats)}
-
 
 def numba_module() -> Any:
     try:
@@ -161,8 +154,11 @@ def _describe(value: Any, seen: set[int]) -> Any:
     if isinstance(value, np.ndarray):
         return ("array", value.dtype.str, value.shape,
                 hashlib.sha256(np.ascontiguousarray(value).tobytes()).hexdigest())
-    if isinstance(value, type):
-        return ("type", value.__module__, value.__qualname__)
+    if isinstance(value, type):  # (with its fields and members in order: a structref's
+        # proxy, or a named tuple, lays out its fields by them)
+        members = tuple(name for name in vars(value) if not name.startswith("__"))
+        return ("type", value.__module__, value.__qualname__,
+                tuple(getattr(value, "_fields", ())), members)
     if id(value) in seen:  # (a function that calls itself)
         return ("seen", getattr(value, "__qualname__", type(value).__qualname__))
     seen.add(id(value))

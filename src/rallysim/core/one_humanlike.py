@@ -1,8 +1,8 @@
 """The fused physics steps of one game of one HUMAN-LIKE player with the paper flight
 (``gym.make("RallySim/HumanLikeReturn-v0")``), compiled: the body's step, the flight, the face's
-frame and the box test, with no Python between physics steps, as ``rallysim.core.one_game``
-runs one SIMPLE game. The body's step is the batch's own (``rallysim.core.humanlike_step``,
-called for the game's N = P = 1 arrays); a step that needs judging goes to ``Game._judge``.
+frame and the box test, with no Python between physics steps. The body's step is the batch's
+own (``rallysim.core.humanlike_step``, called for the game's N = P = 1 arrays); a step that
+needs judging goes to ``Game._judge``.
 """
 
 from __future__ import annotations
@@ -22,8 +22,7 @@ from rallysim.core.shuttle import GRAVITY, PaperShuttle
 def _free_steps_with(physics_step: Callable, step_apart: Callable, fly: Callable,
                      shape: Callable, load: Callable, store: Callable) -> Callable:
     """The free physics steps of one game of one HUMAN-LIKE player (``OneHumanLikeGame``),
-    as ``rallysim.core.one_game._free_steps_with`` runs them for one SIMPLE player: the body's
-    ``physics_step`` (``rallysim.core.humanlike_step``) in place of the arm's, the face's frame
+    around the body's ``physics_step`` (``rallysim.core.humanlike_step``), the face's frame
     from MuJoCo's face site (``HumanLikeBodies.face_frame``); ``fly``, ``shape``, ``load``,
     ``store``: ``one_game.HELPERS`` compiled. Returns the steps run, whether the last needs judging,
     and the points the box test of that step started from (the face's frame, the world)."""

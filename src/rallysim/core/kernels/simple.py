@@ -153,9 +153,9 @@ def _steps_with(njit: Callable, mj_step: Callable, sin: Callable, cos: Callable
 
     @inline
     def clip(a, lo, hi):
-        # np.minimum(np.maximum(a, lo), hi)
-        m = a if a > lo else lo
-        return m if m < hi else hi
+        # np.minimum(np.maximum(a, lo), hi), whose NaN stays NaN
+        m = a if a > lo or a != a else lo
+        return m if m < hi or m != m else hi
 
     @inline
     def drive_bodies(a, k, n, p):
