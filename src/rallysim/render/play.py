@@ -21,6 +21,7 @@ returns to the starting view, ``[`` / ``]`` switch to the rendering model's fixe
 from __future__ import annotations
 
 import contextlib
+import copy
 import time
 from collections.abc import Callable
 from typing import Any
@@ -63,6 +64,7 @@ def play(low_level: LowLevel | str, high_level: HighLevel, human: int | None = N
     loop = TurnLoop.build(player, 1, low_level, config, seed)
     loop.reset(np.array([0]))
     keyboard = rig_class(player).keyboard()
+    _load_compiled_steps(loop.rally.game, player)
     # the viewer draws the model itself: no offscreen OpenGL context next to its window's
     scene = SceneRenderer(2, offscreen=False, player=player)
     viewer = _open_window(scene, viewer_factory, camera or default_camera(player),
@@ -85,6 +87,16 @@ def play(low_level: LowLevel | str, high_level: HighLevel, human: int | None = N
         viewer.close()
         scene.close()
     return lengths
+
+
+def _load_compiled_steps(game: Any, player: str) -> None:
+    """Step a copy of ``game`` once, so that this process has loaded the compiled physics
+    steps (from Numba's cache, or compiled them) before the window opens: otherwise the
+    window's first second stands still. The copy is dropped; the rally is untouched."""
+    from rallysim.players import get_player
+
+    twin = copy.deepcopy(game)
+    twin.step(np.zeros((twin.n_envs, twin.n_players, get_player(player).action.size)))
 
 
 def _check_seconds(seconds: float | None) -> None:
