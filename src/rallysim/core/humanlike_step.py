@@ -25,20 +25,11 @@ from collections.abc import Callable
 import numpy as np
 
 from rallysim.core import native
+from rallysim.core.kernels.numpy_scalars import np_max, np_min
 
 # ``constants`` layout (``HumanLikeBodies._constants``): lo, hi, rate (8 each), then these
 DT, BRAKE, MAX_SPEED, HIPS_LO, HIPS_HI, HIPS_HEIGHT, ROUNDS = 24, 25, 26, 27, 29, 31, 32
 N_CONSTANTS = 33
-
-
-def np_min(a: float, b: float) -> float:
-    """``np.minimum`` of two numbers: NaN if either is NaN, ``b`` on a tie."""
-    return a if a < b or a != a else b
-
-
-def np_max(a: float, b: float) -> float:
-    """``np.maximum`` of two numbers: NaN if either is NaN, ``b`` on a tie."""
-    return a if a > b or a != a else b
 
 
 def beyond(tau: float, lim: float) -> int:

@@ -31,6 +31,7 @@ from typing import Any, NamedTuple, get_type_hints
 import numpy as np
 
 from rallysim.core import native
+from rallysim.core.kernels.numpy_scalars import np_max, np_min
 from rallysim.core.kernels.simple_arrays import SimpleArrays
 from rallysim.core.shuttle import GRAVITY, RADIUS, AeroShuttle, PaperAlg1Shuttle, PaperShuttle
 
@@ -151,11 +152,11 @@ def _steps_with(njit: Callable, mj_step: Callable, sin: Callable, cos: Callable
     of arrays would count a reference to each of them."""
     inline = njit(inline="always")
 
+    lower, upper = inline(np_max), inline(np_min)
+
     @inline
     def clip(a, lo, hi):
-        # np.minimum(np.maximum(a, lo), hi), whose NaN stays NaN
-        m = a if a > lo or a != a else lo
-        return m if m < hi or m != m else hi
+        return upper(lower(a, lo), hi)  # np.minimum(np.maximum(a, lo), hi)
 
     @inline
     def drive_bodies(a, k, n, p):
