@@ -17,11 +17,9 @@ ours
 ours, single env
     ``gym.make("RallySim/SimpleReturn-v0")`` and ``gym.make("RallySim/HumanLikeReturn-v0")``
     (Gymnasium's wrappers included) with pre-generated uniform random actions, reset when an
-    episode ends: the way one environment is used without a vector env. The SIMPLE one runs
-    its physics steps compiled where Numba is installed (the ``fast`` extra), and once more as
-    Python (``rallysim.core.native.KERNEL = "python"``). The single envs and the single
-    pendulum below are timed in turn, one repeat of each per round, so that a slower minute of
-    a shared machine slows them all.
+    episode ends: the way one environment is used without a vector env. The single envs and
+    the single pendulum below are timed in turn, one repeat of each per round, so that a slower
+    minute of a shared machine slows them all.
 (a1) single-world raw ceiling
     ``mujoco.mj_step`` on ``build_simple_world(1, 1)``, the MJCF model of one SIMPLE player, in
     a tight Python loop and through ``mujoco.rollout`` (a C loop: no Python per step). The
@@ -73,7 +71,6 @@ import gymnasium as gym
 import mujoco
 import numpy as np
 
-from rallysim.core import native
 from rallysim.core.bodies import build_simple_world
 from rallysim.core.game import PHYSICS_STEPS_PER_DECISION
 from rallysim.envs.simple_return_v0 import SimpleReturnVectorEnv
@@ -210,16 +207,10 @@ def ours_scripted_stepper(n: int) -> Stepper:
     return step
 
 
-def single_stepper(env_id: str, kernel: str | None = None) -> tuple[Stepper, gym.Env]:
+def single_stepper(env_id: str) -> tuple[Stepper, gym.Env]:
     """``gym.make(env_id)`` stepped with pre-drawn uniform random actions, reset at each
-    episode's end (as a training or evaluation loop over one environment does); ``kernel``:
-    ``native.KERNEL`` while it is made."""
-    default = native.KERNEL
-    native.KERNEL = kernel or default
-    try:
-        env = gym.make(env_id)
-    finally:
-        native.KERNEL = default
+    episode's end (as a training or evaluation loop over one environment does)."""
+    env = gym.make(env_id)
     env.reset(seed=0)
     space = env.action_space
     batches = np.random.default_rng(0).uniform(space.low, space.high,
@@ -243,7 +234,6 @@ class Single:
     label: str
     env_id: str
     physics_per_decision: int | None = None
-    kernel: str | None = None
 
 
 def bench_singles(singles: list[Single], budget: Budget) -> list[Row]:
@@ -252,7 +242,7 @@ def bench_singles(singles: list[Single], budget: Budget) -> list[Row]:
     stubbed = _stub_render_modules()  # (where bench_pendulum has not made them already)
     for single in singles:
         try:
-            step, env = single_stepper(single.env_id, single.kernel)
+            step, env = single_stepper(single.env_id)
         except Exception as exc:  # a missing dependency, a Gymnasium without the env, ...
             rows[single.key] = Row(single.key, single.label, 1, None, None, None,
                                    f"cannot be created: {type(exc).__name__}: {exc}")
@@ -261,9 +251,6 @@ def bench_singles(singles: list[Single], budget: Budget) -> list[Row]:
         note = f"{per} physics steps per decision"
         if stubbed and single.env_id == PENDULUM_ID:
             note += f"; placeholder {', '.join(stubbed)} (render-only imports)"
-        game = getattr(getattr(env.unwrapped, "task", None), "game", None)
-        if game is not None:  # a single RallySim game: which kernel ran its physics steps
-            note += f"; {game.kernel} physics steps"
         made.append((single, step, per, note))
     rates = interleaved_calls_per_second([step for _, step, _, _ in made], budget)
     for (single, _, per, note), calls in zip(made, rates, strict=True):
@@ -609,8 +596,6 @@ def throughput_rows(budget: Budget) -> list[Row]:
     rows += bench_singles([
         Single("single_simple", f"rallysim gym.make({SIMPLE_ID!r}), random actions",
                SIMPLE_ID, PHYSICS_STEPS_PER_DECISION),
-        Single("single_simple_python", f"the same, {native.KERNEL_VARIABLE}=python", SIMPLE_ID,
-               PHYSICS_STEPS_PER_DECISION, "python"),
         Single("single_humanlike", f"rallysim gym.make({HUMANLIKE_ID!r}), random actions",
                HUMANLIKE_ID, PHYSICS_STEPS_PER_DECISION),
         Single("single_pendulum", f"(b) gym.make({PENDULUM_ID!r}), random actions",

@@ -25,8 +25,7 @@ IDS = ("RallySim/SimpleReturn-v0", "RallySim/SimpleRallyTurn-v0", "RallySim/Simp
 def stack_to_compiled_step(env_id: str) -> list[str]:
     """The rallysim frames on the stack when ``env.step`` first calls a compiled step (the
     Numba function that runs the physics steps), innermost first."""
-    from rallysim.core import humanlike_step, one_humanlike
-    from rallysim.core.kernels import simple
+    from rallysim.core.kernels import humanlike, simple
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -50,11 +49,10 @@ def stack_to_compiled_step(env_id: str) -> list[str]:
         return called
 
     # the compiled entry points the envs call, each wrapped in a Python spy for one step
-    kernels = simple.Compiled.get()
-    body_step, free_steps = humanlike_step.compiled_step(), one_humanlike.compiled_free_steps()
-    patches = [(simple.Compiled, "function", kernels._replace(steps=spy(kernels.steps))),
-               (humanlike_step, "compiled_step", lambda: spy(body_step)),
-               (one_humanlike, "compiled_free_steps", lambda: spy(free_steps))]
+    patches = []
+    for kernel in (simple.SimpleKernel.compiled, humanlike.HumanLikeKernel.compiled):
+        compiled = kernel.get()
+        patches.append((kernel, "function", compiled._replace(steps=spy(compiled.steps))))
     saved = [(owner, name, getattr(owner, name)) for owner, name, _ in patches]
     action = env.action_space.sample() * 0.0
     try:

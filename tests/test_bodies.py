@@ -5,14 +5,18 @@ import numpy as np
 import pytest
 
 from rallysim.core.bodies import SimpleBodies, player_geometry
+from rallysim.core.game import Game
 
 
 def drive(b: SimpleBodies, action, steps: int):
+    """Physics steps of ``b`` (in a game: the compiled steps move the bodies) under
+    ``action``; each step's arm angles and rates."""
+    game = b.__dict__.setdefault("_game", Game(b.n_envs, b.n_players, bodies=b))
     a = np.broadcast_to(np.asarray(action, float), (b.n_envs, b.n_players, 3))
     b.set_actions(a)
     thetas, omegas = [], []
     for _ in range(steps):
-        b.physics_step()
+        game._physics_step()
         thetas.append(b.theta.copy())
         omegas.append(b.omega.copy())
     return np.array(thetas), np.array(omegas)

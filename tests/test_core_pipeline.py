@@ -125,33 +125,6 @@ def test_the_rule_set_is_derived_once_from_shuttle_and_players(shuttle, players,
         rules.Rules(net="bounce", full_court=False)
 
 
-def test_net_touch_rearms_both_players_only_under_the_rearm_rule():
-    for rule, armed in ((rules.NET_REARM, [True, True]), (rules.NET_NOTE, [False, True])):
-        state = RallyState.zeros(2, 2)
-        rules.start_rally(state, np.arange(2), np.array([1, 1]))
-        state.net_touched[1] = True  # env 1 touched already since the last shot
-        first = rules.record_net_touches(state, np.arange(2), rules.Rules(rule, False))
-        assert first.tolist() == [0] and state.net_touched.all()
-        assert state.armed[0].tolist() == armed and state.armed[1].tolist() == [False, True]
-
-
-def test_hits_pass_the_turn_and_landings_stop_play():
-    state = RallyState.zeros(2, 2)
-    rules.start_rally(state, np.arange(2), np.array([0, 1]))
-    state.net_touched[:] = True
-    rules.record_hits(state, np.array([0, 1]), np.array([0, 1]))
-    assert state.armed.tolist() == [[False, True], [True, False]]
-    assert state.last_hitter.tolist() == [0, 1] and state.hits.tolist() == [1, 1]
-    assert not state.net_touched.any() and state.has_hit.tolist() == [[True, False],
-                                                                       [False, True]]
-    rules.record_landings(state, np.array([1]))
-    assert state.in_play.tolist() == [True, False] and not state.armed[1].any()
-    one = RallyState.zeros(1, 1)
-    rules.start_rally(one, np.arange(1), np.array([0]))
-    rules.record_hits(one, np.array([0]), np.array([0]))
-    assert not one.armed.any()  # one player: nobody to pass to
-
-
 def test_point_winner_and_game_over():
     # in on a side: that side's fault; out: the last hitter's, or the server's before a hit
     winner = rules.point_winner(land_side=np.array([0, 1, 1, 0]),

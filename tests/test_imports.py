@@ -1,4 +1,5 @@
-"""The package's import graph has no cycle, counting imports inside functions too."""
+"""The package's import graph has no cycle, counting imports inside functions too, and follows
+the layer order docs/design.md states."""
 
 from __future__ import annotations
 
@@ -92,3 +93,49 @@ def test_no_import_cycle_at_module_or_function_level():
     graph = _graph()
     assert "rallysim.core.game" in graph["rallysim.core.tasks.rally"]  # the finder sees imports
     assert _cycles(graph) == []
+
+
+def _layers() -> list[list[str]]:
+    """The layers docs/design.md states, lowest first: each a list of module prefixes (a line
+    of its layer block: the names before the description, comma-separated, a parenthesis
+    left out)."""
+    text = (ROOT.parents[1] / "docs" / "design.md").read_text()
+    block = text.split("Layers, each importing only those below it", 1)[1]
+    block = block.split("```", 2)[1]
+    layers = []
+    for line in block.strip().splitlines():
+        names = line.split("  ")[0].split("(")[0]
+        layers.append([n.strip() for n in names.replace(",", " ").split() if n.strip()])
+    return layers[::-1]
+
+
+def _layer_of(module: str, layers: list[list[str]]) -> int | None:
+    """The layer of ``rallysim.<module>``: that of the longest prefix naming it."""
+    name = module.removeprefix("rallysim.")
+    best, level = -1, None
+    for k, prefixes in enumerate(layers):
+        for prefix in prefixes:
+            if (name == prefix or name.startswith(prefix + ".")) and len(prefix) > best:
+                best, level = len(prefix), k
+    return level
+
+
+# the one import up that docs/design.md states: an env's frames drawn by the renderer
+UPWARD = {"rallysim.envs.rendering": "rallysim.render"}
+
+
+def test_every_import_follows_the_layer_order_the_design_states():
+    layers = _layers()
+    assert layers[0] == ["core"] and layers[-1] == ["cli"]
+    graph = _graph()
+    wrong = []
+    for module, deps in graph.items():
+        here = _layer_of(module, layers)
+        for dep in deps:
+            there = _layer_of(dep, layers)
+            allowed = UPWARD.get(module)
+            if allowed and (dep == allowed or dep.startswith(allowed + ".")):
+                continue
+            if here is not None and there is not None and there > here:
+                wrong.append(f"{module} -> {dep}")
+    assert wrong == [], wrong

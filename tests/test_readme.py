@@ -101,8 +101,7 @@ def test_the_site_home_table_is_the_committed_json(method):
 def test_the_performance_table_is_the_committed_json():
     rows = {r["key"]: r for r in json.loads((DATA / "env_throughput.json").read_text())["rows"]}
     text = (ROOT / "docs" / "performance.md").read_text()
-    for key in ("ours_256", "ours_64", "single_simple", "single_simple_python",
-                "single_humanlike", "single_pendulum"):
+    for key in ("ours_256", "ours_64", "single_simple", "single_humanlike", "single_pendulum"):
         assert f"| {rows[key]['decisions_per_s']:,.0f} |" in text, key
 
 

@@ -1,7 +1,6 @@
-"""The compiled physics steps of SIMPLE games (``rallysim.core.kernels.simple``): they give the
-lanes code's bits for every batch size, player count, flight model, shaping and hit cap,
-through hits, net touches, landings in and out, held and frozen games; a batch's env i replays
-a single env seeded s + i; and the judging's numbers are as the rules say."""
+"""The compiled physics steps (``rallysim.core.kernels``) of SIMPLE games: a batch's env i
+replays a single env seeded s + i; the judging's numbers are as the rules say; each player
+kind runs its own compiled steps, and nothing else runs them."""
 
 from __future__ import annotations
 
@@ -12,90 +11,15 @@ import numpy as np
 import pytest
 
 from rallysim.core import native
-from rallysim.core.bodies import SimpleBodies
 from rallysim.core.court import Court
 from rallysim.core.game import PHYSICS_DT, Game
 from rallysim.core.humanlike import HumanLikeBodies
 from rallysim.core.kernels import simple
+from rallysim.core.kernels.humanlike import HumanLikeKernel
+from rallysim.core.kernels.simple import SimpleKernel
 from rallysim.core.shuttle import RADIUS
 from rallysim.envs.simple_return_v0 import SimpleReturnEnv, SimpleReturnVectorEnv
-from tests.kernels import NEEDS_COMPILED_SIMPLE, play, same_bits
-
-pytestmark = NEEDS_COMPILED_SIMPLE
-
-
-def _game_state(game: Game) -> list[np.ndarray]:
-    """Every array of the game's state and of its last decision's events."""
-    b, sh, st, d = game.bodies, game.shuttle, game.state, game.bodies.data
-    return [d.qpos, d.qvel, d.ctrl, d.mocap_pos, b.base_x, b._theta0, b.base_moved, b.target,
-            b.torque_limit, sh.motion, sh.shot_time, sh.shot_speed,
-            game._q[:, :game.n_players], game._gap, *vars(st).values(),
-            *vars(game.events).values()]
-
-
-def _lanes(game: Game) -> Game:
-    """``game`` stepped by the lanes code (``Game._step_lanes``) instead of the kernel."""
-    game._simple = None
-    return game
-
-
-def _swing_at(game: Game, rng: np.random.Generator) -> np.ndarray:
-    """Actions that meet many shuttles: each arm swings toward the shuttle's height, its base
-    toward the shuttle's x, with noise."""
-    n, p = game.n_envs, game.n_players
-    own_x = game._fwd * game.shuttle.pos[:, 0][:, None]
-    b = game.bodies
-    a = np.empty((n, p, 3))
-    a[..., 0] = np.sign(rng.uniform(-1, 1, (n, p)))
-    a[..., 1] = rng.uniform(-0.2, 1.0, (n, p))
-    a[..., 2] = np.clip(own_x - b.base_x + rng.normal(0, 0.5, (n, p)), -1, 1)
-    return a
-
-
-@pytest.mark.parametrize("shuttle", ["paper", "paper-alg1", "aero"])
-@pytest.mark.parametrize("n, p", [(1, 1), (5, 1), (1, 2), (4, 2)])
-def test_compiled_steps_give_the_lanes_codes_bits(n, p, shuttle):
-    seen = dict.fromkeys(["hit", "net_touch", "landed", "capped", "frozen", "held",
-                          "stopped"], 0)
-    for shaping, max_hits in ((True, 1), (False, None)):
-        games = [Game(n, p, shuttle=shuttle, seed=9, shaping=shaping, max_hits=max_hits)
-                 for _ in range(2)]
-        compiled, lanes = games[0], _lanes(games[1])
-        assert compiled.kernel == "compiled"
-        rng = np.random.default_rng(n * 10 + p)
-        for g in games:
-            g.reset(np.arange(n), receiver=np.arange(n) % p)
-        for step in range(250):
-            a = _swing_at(compiled, rng) if step % 2 else rng.uniform(-1, 1, (n, p, 3))
-            active = rng.uniform(size=n) > 0.25 if step % 4 == 0 else None
-            if step % 10 == 5:  # a shuttle sent at the net from either side, now and then
-                e, side = rng.integers(n), rng.choice([-1.0, 1.0])
-                pos = side * 0.5, rng.uniform(-1, 1), rng.uniform(1.0, 1.8)
-                vel = -side * rng.uniform(5, 20), 0.0, rng.uniform(-1, 1)
-                for g in games:
-                    g.shuttle.pos[e], g.shuttle.vel[e] = pos, vel
-                    g._refresh()
-            in_play = compiled.in_play.copy()
-            for g in games:
-                g.step(a, active)
-            for x, y in zip(_game_state(compiled), _game_state(lanes), strict=True):
-                assert same_bits(x, y), (step, shaping)
-            ev = compiled.events
-            seen["hit"] += int(ev.hit.sum())
-            seen["net_touch"] += int(ev.net_touch.sum())
-            seen["landed"] += int(ev.landed.sum())  # (in and out: both sides' zones vary)
-            seen["capped"] += int((compiled.hits == 1).sum()) if max_hits else 0
-            seen["frozen"] += 0 if active is None else int((~active).sum())
-            seen["held"] += int((~in_play).sum())
-            seen["stopped"] += int((abs(compiled.bodies.theta) == compiled.bodies.limit).sum())
-            # (games out of play wait a few decisions: held steps)
-            done = np.flatnonzero((~compiled.in_play & (rng.uniform(size=n) < 0.3))
-                                  | (rng.uniform(size=n) < 0.02))
-            if len(done):
-                base_x = rng.uniform(-6.0, -1.0, (len(done), p))
-                for g in games:
-                    g.reset(done, receiver=done % p, base_x=base_x)
-    assert min(seen.values()) > 0, seen
+from tests.kernels import play, same_bits
 
 
 def test_a_batchs_env_i_replays_a_single_env_seeded_s_plus_i():
@@ -212,41 +136,26 @@ def test_the_hit_cap_ends_the_judging_of_a_rally():
     assert not g.events.landed[0] and g.in_play[0]
 
 
-def test_the_kernel_runs_for_simple_bodies_of_every_batch_and_flight():
+def test_each_kind_of_player_runs_its_compiled_steps_for_every_batch_and_flight():
     for n, p in ((1, 1), (3, 1), (1, 2), (64, 2)):
         for shuttle in ("paper", "paper-alg1", "aero"):
-            assert Game(n, p, shuttle=shuttle).kernel == "compiled"
-    assert Game(1, 1, bodies=HumanLikeBodies(1, 1))._simple is None
+            assert isinstance(Game(n, p, shuttle=shuttle)._kernel, SimpleKernel)
+    assert isinstance(Game(1, 1, bodies=HumanLikeBodies(1, 1))._kernel, HumanLikeKernel)
 
-    class Bodies(SimpleBodies):  # a player model built on SIMPLE's may change its motion
-        pass
+    class Bodies:  # not a kind the compiled steps know
+        n_envs, n_players = 1, 1
 
-    assert Game(2, 1, bodies=Bodies(2, 1))._simple is None
-
-
-def test_the_kernel_chosen(monkeypatch):
-    monkeypatch.setattr(native, "KERNEL", "python")  # the default, where none is given
-    assert Game(2, 1).kernel == "python"
-    with pytest.raises(ValueError, match=r"unknown kernel 'numba'"):
-        simple.SimpleKernel(Game(1, 1), "numba")
+    with pytest.raises(TypeError, match="SimpleBodies or HumanLikeBodies"):
+        Game(1, 1, bodies=Bodies())
 
 
-def test_where_the_compiled_steps_cannot_be_had_the_lanes_code_runs_alike(monkeypatch):
-    env = SimpleReturnVectorEnv(2)
-    env.reset(seed=2)
-    data = pickle.dumps(env)
-    rng = np.random.default_rng(5)
-    actions = rng.uniform(-1, 1, (200, 2, 3)).astype(np.float32)
-    played = [env.step(a) for a in actions]
-    for name, value in (("tried", True), ("function", None), ("why_not", "a test")):
-        monkeypatch.setattr(simple.Compiled, name, value)
-    again = pickle.loads(data)
-    assert again.task.game.kernel == "python"
-    with pytest.raises(RuntimeError, match="compiled kernel cannot run here: a test"):
-        simple.SimpleKernel(again.task.game, "compiled")
-    for a, one in zip(actions, played, strict=True):
-        two = again.step(a)
-        assert all(same_bits(x, y) for x, y in zip(one[:4], two[:4], strict=True))
+def test_where_the_compiled_steps_cannot_be_had_the_first_step_says_why(monkeypatch):
+    kernel = native.Kernel(lambda: (_ for _ in ()).throw(native.Unavailable("a test")))
+    monkeypatch.setattr(SimpleKernel, "compiled", kernel)
+    g = Game(2, 1)
+    for _ in range(2):  # (the reason is kept)
+        with pytest.raises(RuntimeError, match="compiled steps cannot run here: a test"):
+            g.reset(np.arange(2))
 
 
 def test_a_copy_mid_episode_keeps_replaying():
@@ -271,21 +180,22 @@ def test_the_compiled_observation_is_the_lanes_codes():
     env.reset(seed=0)
     task, game = env.task, env.task.game
     b, sh = game.bodies, game.shuttle
-    kernel = game._simple
+    compiled = game.observation
     rng = np.random.default_rng(0)
     special = [0.0, -0.0, np.nan, np.inf, -np.inf, 1e300, -1.0, 1.0]
     clipped = {"low": 0, "high": 0, "nan": 0}
     for _ in range(1000):
         values = rng.normal(0.0, 10.0 ** rng.integers(-2, 3), (3, 10))
-        # (not the arm angle: the probe holds sine and cosine to NumPy's on finite angles)
+        # (not the arm angle: the C library's sine and cosine are NumPy's only where NumPy's
+        # AVX-512 code is off, docs/numerics.md)
         values[:, rng.integers(1, 10)] = special[rng.integers(len(special))]
         b.theta[:, 0], b.omega[:, 0], b.base_x[:, 0] = values[:, :3].T
         sh.motion[:, :] = 10.0 * values[:, 3:9].T
         task.goal[:] = values[:, 9]
-        game._simple = None
+        game.observation = lambda *args: None  # the lanes code's observation
         with np.errstate(invalid="ignore"):  # NumPy's sine of inf warns; it is NaN
             expected = task.observe()
-        game._simple = kernel
+        game.observation = compiled
         got = task.observe()
         assert same_bits(got, expected), values
         clipped["low"] += int((got == -1.0).sum())
@@ -294,7 +204,7 @@ def test_the_compiled_observation_is_the_lanes_codes():
     assert min(clipped.values()) > 100, clipped
 
 
-def test_the_dry_run_compiled_what_a_game_passes():
+def test_one_compiled_signature_serves_every_game():
     env = SimpleReturnEnv()
     env.reset(seed=1)
     for _ in range(50):
@@ -303,6 +213,7 @@ def test_the_dry_run_compiled_what_a_game_passes():
         g = Game(n, p, shuttle="aero", max_hits=2, shaping=True)
         g.reset(np.arange(n))
         g.step(np.zeros((n, p, 3)), np.ones(n, bool))
-    # one signature each: the game's arrays are of the types the dry run compiled for
-    assert len(simple.Compiled.function.steps.signatures) == 1
-    assert len(simple.Compiled.function.observation.signatures) == 1
+    # one signature each: every game's arrays are of the same types
+    steps, observation = simple.Compiled.get()
+    assert len(steps.steps.signatures) == 1
+    assert len(observation.signatures) == 1

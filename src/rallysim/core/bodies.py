@@ -14,7 +14,7 @@ import mujoco
 import numpy as np
 
 from rallysim.assets import asset_path
-from rallysim.core.lanes import ARRAYS, SCALARS, ArrayLanes, Ops, ScalarLanes
+from rallysim.core.lanes import ARRAYS, SCALARS, Ops
 from rallysim.core.rules import FORWARD
 
 SIMPLE_ACTIONS = ("target_orientation", "force", "movement")
@@ -24,7 +24,8 @@ class PlayerBodies(Protocol):
     """What the rulebook (``Game``) needs of a batch of N x P players, in their own frames.
 
     Arrays are (N, P, ...); "own frame" is the player's (docs/reference.md §1). Implemented by
-    ``SimpleBodies`` here; other player models implement the same to share every rule."""
+    ``SimpleBodies`` and ``HumanLikeBodies``, whose motion, face frame and shot the compiled
+    steps know (``rallysim.core.kernels``)."""
 
     n_envs: int
     n_players: int
@@ -35,23 +36,9 @@ class PlayerBodies(Protocol):
 
     def reset(self, envs: np.ndarray, base_x: np.ndarray, pose: Any = 0.0) -> None: ...
     def set_actions(self, actions: np.ndarray) -> None: ...
-    def physics_step(self) -> None: ...
-    def lanes(self, ops: Ops) -> Any:
-        """The bodies' lanes (``rallysim.core.lanes``) for ``step_lanes`` and ``face_frame``,
-        with at least ``base_x`` and ``base_moved``."""
-    def store_lanes(self, lanes: Any) -> None:
-        """Write scalar lanes back to the arrays (array lanes already are them)."""
-    def step_lanes(self, lanes: Any, ops: Ops) -> None:
-        """One physics step (``physics_step``) on lanes."""
-    def face_frame(self, lanes: Any, own: tuple, ops: Ops) -> tuple:
-        """Own-frame point lanes (x, y, z) -> the same point in each face's frame."""
-    def to_face_frame(self, own: np.ndarray, out: np.ndarray) -> None:
-        """Own-frame points (N, P, 3) -> each face's frame, written to ``out``."""
     def racket_velocity(self, env: np.ndarray, player: np.ndarray, t: np.ndarray) -> np.ndarray:
         """Own-frame face-centre velocity of (env, player) pairs at fraction ``t`` of the
         last physics step, (k, 3)."""
-    def shot_velocity(self, racket: np.ndarray) -> np.ndarray:
-        """The shuttle's own-frame velocity after a hit by a face moving at ``racket``."""
     def snapshot(self, envs: np.ndarray) -> Any: ...
     def restore(self, envs: np.ndarray, saved: Any) -> None: ...
 
@@ -121,7 +108,7 @@ class SimpleBodies(MjDataViews):
         self._sync_mocap()
         mujoco.mj_forward(self.model, self.data)
 
-    _views = ("theta", "omega", "torque", "mocap", "_lane_cache")
+    _views = ("theta", "omega", "torque", "mocap")
 
     def _bind_views(self) -> None:
         """Views into MuJoCo's memory: writing them moves the bodies."""
@@ -130,7 +117,6 @@ class SimpleBodies(MjDataViews):
         self.omega = self.data.qvel.reshape(shape)
         self.torque = self.data.ctrl.reshape(shape)
         self.mocap = self.data.mocap_pos.reshape((*shape, 3))
-        self._lane_cache: dict[str, np.ndarray] | None = None  # made by lane_views
 
     # -- state ---------------------------------------------------------------------------------
     def reset(self, envs: np.ndarray, base_x: np.ndarray, theta: np.ndarray | float = 0.0) -> None:
@@ -158,64 +144,6 @@ class SimpleBodies(MjDataViews):
         ops.put(self._neg_limit, -torque)
         ops.put(self._base_step, movement * (self.max_base_speed * self.dt))
 
-    def physics_step(self) -> None:
-        """One physics step: slide the bases, drive the arms, integrate with MuJoCo."""
-        self.step_lanes(self.lanes(ARRAYS), ARRAYS)
-
-    # -- lanes (rallysim.core.lanes) -----------------------------------------------------------
-    _moving = ("base_x", "base_moved", "theta0", "theta", "omega", "torque", "mocap_x")
-
-    def lane_views(self) -> dict[str, np.ndarray]:
-        """Every (N, P) array a physics step reads or writes; the first ``_moving`` change."""
-        if self._lane_cache is None:
-            self._lane_cache = {
-                "base_x": self.base_x, "base_moved": self.base_moved, "theta0": self._theta0,
-                "theta": self.theta, "omega": self.omega, "torque": self.torque,
-                "mocap_x": self.mocap[..., 0], "base_step": self._base_step,
-                "target": self.target, "torque_limit": self.torque_limit,
-                "neg_limit": self._neg_limit, "fwd": self.forward}
-        return self._lane_cache
-
-    def lanes(self, ops: Ops) -> ArrayLanes | ScalarLanes:
-        views = self.lane_views()
-        return ScalarLanes.load(views) if ops.scalar else ArrayLanes(**views)
-
-    def store_lanes(self, lanes: ArrayLanes | ScalarLanes) -> None:
-        if lanes.scalar:
-            lanes.store(self.lane_views(), self._moving)
-
-    def step_lanes(self, b: Any, ops: Ops) -> None:
-        """One physics step on lanes ``b``: the base slides, the arm's drive torque is set, MuJoCo
-        integrates, then the arm's hard stops."""
-        b.theta0 = b.theta
-        x = ops.clip(b.base_x + b.base_step, self.base_range[0], self.base_range[1])
-        b.base_moved = x != b.base_x
-        b.base_x = x
-        b.mocap_x = b.fwd * x
-        # drive: the rate that reaches the target within this step, capped, then torque-limited
-        w = ops.clip((b.target - b.theta) * (1.0 / self.dt), -self.max_rate, self.max_rate)
-        w = (w - b.omega) * (self.inertia / self.dt)
-        b.torque = ops.clip(w, b.neg_limit, b.torque_limit)
-        self._mj_step(b)
-        # Hard stops at +-85 degrees (the drive can overshoot its target when its torque is low).
-        over = abs(b.theta) > self.limit
-        if ops.any(over):
-            b.theta = ops.clip(b.theta, -self.limit, self.limit)
-            b.omega = ops.where(over, 0.0, b.omega)
-            if b.scalar:
-                self.theta[0, 0], self.omega[0, 0] = b.theta, b.omega
-
-    def _mj_step(self, b: Any) -> None:
-        """MuJoCo's step. Array lanes are MjData's memory; scalar ones (one player) are written
-        to it before the step and read back after."""
-        if b.scalar:
-            self.torque[0, 0] = b.torque
-            self.mocap[0, 0, 0] = b.mocap_x
-        mujoco.mj_step(self.model, self.data)
-        if b.scalar:
-            b.theta = self.theta.item()
-            b.omega = self.omega.item()
-
     def _sync_mocap(self) -> None:
         self.mocap[..., 0] = self.forward * self.base_x
 
@@ -225,34 +153,6 @@ class SimpleBodies(MjDataViews):
     def restore(self, envs: np.ndarray, saved: tuple) -> None:
         self.theta[envs], self.omega[envs], self.base_x[envs] = saved
         self._sync_mocap()
-
-    # -- the rulebook's view -------------------------------------------------------------------
-    def to_face_frame(self, own: np.ndarray, out: np.ndarray) -> None:
-        """Own-frame points (N, P, 3) -> each face's frame (``face_frame``), written to ``out``."""
-        q = self.face_frame(self.lanes(ARRAYS), (own[..., 0], own[..., 1], own[..., 2]), ARRAYS)
-        out[..., 0], out[..., 1], out[..., 2] = q
-
-    def face_frame(self, b: Any, own: tuple, ops: Ops) -> tuple:
-        """Own-frame point lanes -> (normal, across, along the arm) about each face centre. The
-        arm turns about y only, so this is a planar rotation (cheaper than 3x3 matrices)."""
-        s, c = ops.sin(b.theta), ops.cos(b.theta)
-        dx = own[0] - b.base_x - self.face_offset * s
-        dz = own[2] - self.pivot_z - self.face_offset * c
-        return dx * c - dz * s, own[1], dx * s + dz * c
-
-    def racket_velocity(self, env: np.ndarray, player: np.ndarray, t: np.ndarray) -> np.ndarray:
-        """Face-centre velocity at fraction ``t`` of the last step: the arm turned at a constant
-        rate through it (Euler), so only the direction depends on ``t``."""
-        th0 = self._theta0[env, player]
-        th = th0 + t * (self.theta[env, player] - th0)
-        w = self.omega[env, player]
-        return np.stack([self.face_offset * w * np.cos(th), np.zeros(len(env)),
-                         -self.face_offset * w * np.sin(th)], axis=1)
-
-    @staticmethod
-    def shot_velocity(racket: np.ndarray) -> np.ndarray:
-        """docs/reference.md §5: the shuttle leaves at twice the face centre's velocity."""
-        return 2.0 * racket
 
     # -- kinematics (own frame) ----------------------------------------------------------------
     def face_centre(self) -> np.ndarray:

@@ -2,7 +2,8 @@
 MuJoCo model.
 
 ``HumanLikeBodies`` implements the rulebook's ``PlayerBodies`` protocol, so ``Game`` serves,
-flies, judges hits and landings for these players exactly as for the SIMPLE ones.
+flies, judges hits and landings for these players exactly as for the SIMPLE ones (the compiled
+steps: ``rallysim.core.kernels``).
 
 Model (``assets/humanlike_player.xml``): kinematic hips at 0.9 m moved in the horizontal plane,
 and 8 hinges: spine z, chest z, right upper arm x/y/z, lower arm x, hand x/y. The racket face is
@@ -35,7 +36,6 @@ import numpy as np
 from rallysim.assets import asset_path
 from rallysim.core import humanlike_step
 from rallysim.core.bodies import MjDataViews
-from rallysim.core.lanes import ARRAYS, ArrayLanes, Ops, ScalarLanes
 from rallysim.core.rules import FORWARD
 
 XML = "humanlike_player.xml"
@@ -195,47 +195,6 @@ class HumanLikeBodies(MjDataViews):
         return (self.qpos, self.qvel, self.torque, self.hips, self.hips_velocity, self.target,
                 self.torque_limit, self._side)
 
-    # -- the rulebook's view -------------------------------------------------------------------
-    def to_face_frame(self, own: np.ndarray, out: np.ndarray) -> None:
-        """Own-frame points (N, P, 3) -> the face box's frame (across, normal, along the
-        handle) about its centre: R^T (world point - centre), R the face site's rotation."""
-        q = self.face_frame(self.lanes(ARRAYS), (own[..., 0], own[..., 1], own[..., 2]), ARRAYS)
-        out[..., 0], out[..., 1], out[..., 2] = q
-
-    # -- lanes (rallysim.core.lanes) -----------------------------------------------------------
-    def lanes(self, ops: Ops) -> ArrayLanes | ScalarLanes:
-        """The rulebook's lanes: ``base_x``, ``base_moved``, ``fwd``, and the face site's world
-        position ``face`` (3 lanes) and rotation ``mat`` (9, row-major)."""
-        self._sync()
-        if not ops.scalar:
-            return ArrayLanes(base_x=self.base_x, base_moved=self.base_moved, fwd=self.forward,
-                              face=tuple(self._face_pos[..., i] for i in range(3)),
-                              mat=tuple(self._face_mat[..., i, j] for i in range(3)
-                                        for j in range(3)))
-        b = ScalarLanes(fwd=self.forward.item())
-        self._read_lanes(b)
-        return b
-
-    def _read_lanes(self, b: ScalarLanes) -> None:
-        b.base_x, b.base_moved = self.base_x.item(), self.base_moved.item()
-        b.face, b.mat = self._face_pos.ravel().tolist(), self._face_mat.ravel().tolist()
-
-    def store_lanes(self, lanes: ArrayLanes | ScalarLanes) -> None:
-        """Nothing to store: ``step_lanes`` steps the arrays themselves."""
-
-    def step_lanes(self, b: ArrayLanes | ScalarLanes, ops: Ops) -> None:
-        """``physics_step`` (compiled, on the arrays), then scalar lanes read the new state."""
-        self.physics_step()
-        if b.scalar:
-            self._read_lanes(b)
-
-    def face_frame(self, b: ArrayLanes | ScalarLanes, own: tuple, ops: Ops) -> tuple:
-        """Own-frame point lanes -> the face box's frame (see ``to_face_frame``)."""
-        # own * (fwd, fwd, 1) is the world point; z is multiplied by 1.0 (exact) as before
-        rel = (own[0] * b.fwd - b.face[0], own[1] * b.fwd - b.face[1], own[2] - b.face[2])
-        m = b.mat
-        return tuple((m[j] * rel[0] + m[3 + j] * rel[1]) + m[6 + j] * rel[2] for j in range(3))
-
     def racket_velocity(self, env: np.ndarray, player: np.ndarray, t: np.ndarray) -> np.ndarray:
         """Own-frame face-centre velocity over the last physics step (its displacement / dt,
         the motion the swept hit test interpolated); the same at every fraction ``t``. The game
@@ -243,15 +202,6 @@ class HumanLikeBodies(MjDataViews):
         v = (self._face_pos[env, player] - self._face0[env, player]) * self.flip[env, player]
         v *= 1.0 / self.dt
         return v
-
-    @staticmethod
-    def shot_velocity(racket: np.ndarray) -> np.ndarray:
-        """The shuttle leaves along the racket velocity at min(60, 5 |v|) m/s
-        (docs/reference.md §10)."""
-        speed = np.linalg.norm(racket, axis=-1, keepdims=True)
-        scale = np.divide(np.minimum(60.0, 5.0 * speed), speed, out=np.zeros_like(speed),
-                          where=speed > 0.0)
-        return racket * scale
 
     # -- kinematics (own frame) ----------------------------------------------------------------
     def hips_position(self) -> np.ndarray:

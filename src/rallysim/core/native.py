@@ -1,24 +1,15 @@
-"""What the compiled kernels share: the choice of kernel, Numba, MuJoCo's C library and
-NumPy's own LAPACK.
+"""What the compiled kernels share: Numba, MuJoCo's C library and NumPy's own LAPACK.
 
-The compiled steps (``rallysim.core.kernels.simple`` for SIMPLE games,
-``rallysim.core.humanlike_step`` for HUMAN-LIKE players, ``rallysim.core.one_humanlike`` for one
-HUMAN-LIKE game's free steps) must give the bits of the NumPy code they replaced, which the
-golden episodes recorded. So each piece they call from C is the very code NumPy's path called:
+The compiled steps (``rallysim.core.kernels``, and ``rallysim.core.humanlike_step`` for
+HUMAN-LIKE players' motion) give the bits of the NumPy code they replaced, which the golden
+episodes recorded. So each piece they call from C is the very code NumPy's path called:
 MuJoCo's library of the bindings' own version, and LAPACK's ``dgesv`` from the library NumPy's
-``linalg.solve`` calls; the compiled sine and cosine are probed against NumPy's before use.
-Where the SIMPLE kernel cannot be had, ``Kernel`` says why and the lanes code runs instead,
-with the same results.
+``linalg.solve`` calls. ``Kernel`` builds a kernel once per process and says why where it
+cannot.
 
 The kernels are compiled once per machine and kept in Numba's cache (``jit``): the C functions
 are named as symbols in the machine code (``c_function``), found at load time in the libraries
-``load_permanently`` loaded, so a later process loads the code instead of compiling it. The
-probes still run in every process (on the cached code), since NumPy's own choice of code
-depends on the process's settings.
-
-``KERNEL`` (or the environment variable ``RALLYSIM_KERNEL``) chooses for SIMPLE games: ``auto``
-(the compiled kernel where it can be had, Python elsewhere), ``python`` or ``compiled``
-(refused where it cannot run).
+``load_permanently`` loaded, so a later process loads the code instead of compiling it.
 """
 
 from __future__ import annotations
@@ -34,55 +25,31 @@ from typing import Any
 import mujoco
 import numpy as np
 
-KERNELS = ("auto", "python", "compiled")
-KERNEL_VARIABLE = "RALLYSIM_KERNEL"
-KERNEL = os.environ.get(KERNEL_VARIABLE, "auto")
-
 
 class Unavailable(Exception):
     """A compiled kernel cannot be had here (the message says why)."""
 
 
-def checked_kernel_name(kernel: str | None) -> str:
-    """``kernel``, or ``KERNEL`` where it is None; ``ValueError`` for an unknown name."""
-    kernel = KERNEL if kernel is None else kernel
-    if kernel not in KERNELS:
-        raise ValueError(f"unknown kernel {kernel!r} (native.KERNEL or {KERNEL_VARIABLE});"
-                         f" valid: {', '.join(map(repr, KERNELS))}")
-    return kernel
-
-
 class Kernel:
     """A compiled kernel of this process, built on first use by ``build`` (called through a
-    lambda by its module, so that tests may replace the module's builder): ``function`` (None
-    where it cannot be had) and ``why_not`` (why, for errors and test skips)."""
+    lambda by its module, so that tests may replace the module's builder)."""
 
-    def __init__(self, build: Callable[[], Callable]) -> None:
+    def __init__(self, build: Callable[[], Any]) -> None:
         self.build = build
-        self.function: Callable | None = None
-        self.why_not = "not yet tried"
-        self.tried = False
+        self.function: Any = None
+        self.why_not = ""
 
-    def get(self) -> Callable | None:
-        if not self.tried:
+    def get(self) -> Any:
+        """The kernel; ``RuntimeError`` saying why where it cannot be had here."""
+        if self.function is None:
+            if self.why_not:
+                raise RuntimeError(self.why_not)
             try:
-                self.function, self.why_not = self.build(), ""
+                self.function = self.build()
             except Unavailable as exc:
-                self.why_not = str(exc)
-            except Exception as exc:  # a Numba that cannot compile it: Python, same results
-                self.why_not = f"compiling failed: {type(exc).__name__}: {exc}"
-            self.tried = True  # (not before: an interrupted try is tried again)
+                self.why_not = f"the compiled steps cannot run here: {exc}"
+                raise RuntimeError(self.why_not) from None
         return self.function
-
-    def resolve(self, asked: str) -> Callable | None:
-        """The compiled function for a kernel name asked for, or None (Python);
-        ``RuntimeError`` where ``compiled`` was asked for and cannot be had."""
-        if asked == "python":
-            return None
-        function = self.get()
-        if function is None and asked == "compiled":
-            raise RuntimeError(f"the compiled kernel cannot run here: {self.why_not}")
-        return function
 
 
 def numba_module() -> Any:

@@ -1,9 +1,11 @@
-"""The rulebook (docs/reference.md §3-7): the rule set, serve, swept overlap tests, net, landing,
-in/out, arming and scoring.
+"""The rulebook (docs/reference.md §3-7): the rule set, serve, the tested boxes, the start of a
+rally and scoring.
 
-Functions over batched arrays, shared by every player model and every API view: ``start_rally``
-and the ``record_*`` functions change a ``RallyState`` in place, the others return new arrays.
-``Game`` runs the physics and calls them (docs/design.md lists which rule lives where).
+Functions over batched arrays, shared by every player model and every API view:
+``start_rally`` changes a ``RallyState`` in place, the others return new arrays. What happens
+within a physics step (the swept overlap test, hits, net touches, landings, in/out and
+arming) is judged by the compiled steps (``rallysim.core.kernels.step``); docs/design.md lists
+which rule lives where.
 Positions are metres; a player's *own frame* is the world frame for player 0 and the world
 rotated 180 degrees about z for player 1 (``FORWARD[p]`` is the sign that maps x and y between
 them).
@@ -11,9 +13,7 @@ them).
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
@@ -81,44 +81,9 @@ def start_rally(state: RallyState, envs: np.ndarray, receiver: np.ndarray) -> No
     state.net_touched[envs] = False
 
 
-def record_hits(state: RallyState, env: np.ndarray, player: np.ndarray) -> None:
-    """``player`` hit the shuttle in games ``env`` (distinct): it is disarmed and, with two
-    players, its opponent armed (the turn passes); the shot is counted and the net touch of
-    the last shot forgotten."""
-    state.has_hit[env, player] = True
-    state.armed[env, player] = False
-    if state.armed.shape[1] == 2:
-        state.armed[env, 1 - player] = True
-    state.last_hitter[env] = player
-    state.hits[env] += 1
-    state.net_touched[env] = False
-
-
-def record_net_touches(state: RallyState, envs: np.ndarray, rule_set: Rules) -> np.ndarray:
-    """The shuttle met the net in games ``envs``. Returns those where it is the first touch
-    since the last shot (the touch events); under the re-arm rule both players are armed there.
-    (Blocking the shuttle is physics: ``Game`` moves it.)"""
-    first = envs[~state.net_touched[envs]]
-    state.net_touched[envs] = True
-    if rule_set.net == NET_REARM:
-        state.armed[first] = True
-    return first
-
-
-def record_landings(state: RallyState, envs: np.ndarray) -> None:
-    """The shuttle landed in games ``envs``: play stops there, nobody may hit."""
-    state.in_play[envs] = False
-    state.armed[envs] = False
-
-
 def landing_side(point: np.ndarray) -> np.ndarray:
     """The player (0 or 1) whose half holds each world landing ``point`` (k, 3)."""
-    return in_far_half(point[:, 0]).astype(np.int64)
-
-
-def in_far_half(x: Any) -> Any:
-    """Whether world ``x`` (an array, or one number) is in player 1's half."""
-    return x > 0
+    return (point[:, 0] > 0).astype(np.int64)
 
 
 # -- competitive scoring ------------------------------------------------------------------------
@@ -179,97 +144,6 @@ def _sample_serve_one(u: list[float], f: float) -> tuple[np.ndarray, np.ndarray]
                        speed * float(np.sin(phi))]]))
 
 
-def segment_box_entry(
-    q0: np.ndarray, q1: np.ndarray, lo: np.ndarray, hi: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """Swept overlap of points moving from ``q0`` to ``q1`` (…, 3) against boxes [lo, hi] (…, 3).
-
-    Returns ``(hit, t)``: whether the segment meets the box, and the fraction of the segment at
-    which it enters (0 when it starts inside). A sphere against a box is this test against the box
-    grown by the radius, which is conservative by at most (sqrt(3) - 1) r at the box's corners.
-    """
-    d = q1 - q0
-    # Zero components become a tiny signed step: the slab then spans (-inf, inf) or nothing.
-    np.copyto(d, np.where(d >= 0.0, 1e-12, -1e-12), where=np.abs(d) < 1e-12)
-    inv = 1.0 / d
-    ta = (lo - q0) * inv
-    tb = (hi - q0) * inv
-    near = np.minimum(ta, tb)
-    far = np.maximum(ta, tb)
-    # Elementwise over the 3 axes: NumPy's reductions along a short axis cost far more
-    # (docs/design.md).
-    t_enter = np.maximum(np.maximum(near[..., 0], near[..., 1]), np.maximum(near[..., 2], 0.0))
-    t_exit = np.minimum(np.minimum(far[..., 0], far[..., 1]), far[..., 2])
-    hit = (t_enter <= t_exit) & (t_enter <= 1.0)
-    return hit, t_enter
-
-
-def segment_box_entry_one(q0: tuple, q1: tuple, lo: list, hi: list) -> tuple[list, list]:
-    """``segment_box_entry`` of one game's points (each an (x, y, z) of Python numbers) against
-    their boxes (``lo``, ``hi``: lists of 3 numbers each), the same operations on Python
-    floats: (hit, t) as lists, one value per point. (np.minimum(a, b) is ``a if a < b else
-    b``, np.maximum(a, b) ``a if a > b else b``: either gives b on a tie.)"""
-    hits, ts = [], []
-    for p0, p1, box_lo, box_hi in zip(q0, q1, lo, hi, strict=True):
-        near, far = [], []
-        for a, b, low, high in zip(p0, p1, box_lo, box_hi, strict=True):
-            d = b - a
-            if abs(d) < 1e-12:
-                d = 1e-12 if d >= 0.0 else -1e-12
-            inv = 1.0 / d
-            ta, tb = (low - a) * inv, (high - a) * inv
-            near.append(ta if ta < tb else tb)
-            far.append(ta if ta > tb else tb)
-        (n0, n1, n2), (f0, f1, f2) = near, far
-        m01 = n0 if n0 > n1 else n1
-        m2 = n2 if n2 > 0.0 else 0.0
-        t_enter = m01 if m01 > m2 else m2
-        f01 = f0 if f0 < f1 else f1
-        t_exit = f01 if f01 < f2 else f2
-        hits.append(t_enter <= t_exit and t_enter <= 1.0)
-        ts.append(t_enter)
-    return hits, ts
-
-
-# How far outside a box (per axis) a segment must stay for ``apart``: far above the rounding
-# error of the slab arithmetic on positions of metres, so that segment_box_entry misses it too.
-APART_MARGIN = 1e-6
-
-
-def grown(lo: np.ndarray, hi: np.ndarray) -> tuple[tuple, tuple]:
-    """Boxes' (lo, hi) (..., 3), as Python numbers grown by ``APART_MARGIN``, for ``apart``."""
-    return ((np.asarray(lo) - APART_MARGIN).tolist(), (np.asarray(hi) + APART_MARGIN).tolist())
-
-
-def apart(q0: tuple, q1: tuple, lo: list, hi: list) -> bool:
-    """Whether the segment q0 -> q1 of one game ((x, y, z) Python numbers) stays outside the
-    box ``grown(lo, hi)`` on one side of some axis, so that ``segment_box_entry`` finds no hit
-    (its entry fraction there is negative or above 1). A single game skips most physics steps'
-    box tests with it; a batch nearly always has a game near some box. (Written out for the
-    three axes, x and z first, which separate most often: this runs every physics step.)"""
-    (x0, y0, z0), (x1, y1, z1), (lx, ly, lz), (hx, hy, hz) = q0, q1, lo, hi
-    return ((x0 > hx and x1 > hx) or (x0 < lx and x1 < lx) or (z0 > hz and z1 > hz)
-            or (z0 < lz and z1 < lz) or (y0 > hy and y1 > hy) or (y0 < ly and y1 < ly))
-
-
-def step_apart_with(apart: Callable) -> Callable:
-    """``step_apart`` built on ``apart`` (a compiled kernel builds it on a compiled ``apart``,
-    ``rallysim.core.one_humanlike``)."""
-
-    def step_apart(f0: tuple, f1: tuple, w0: tuple, w1: tuple, top: float, net_lo: Any,
-                   net_hi: Any, face_lo: Any, face_hi: Any) -> bool:
-        """Whether one game's shuttle stayed apart from the floor (above ``top``), the net
-        and the face (``apart`` of their grown boxes) during a physics step from ``f0``,
-        ``w0`` to ``f1``, ``w1`` (``f``: in the face's frame, ``w``: in the world)."""
-        return (w0[2] > top and w1[2] > top and apart(w0, w1, net_lo, net_hi)
-                and apart(f0, f1, face_lo, face_hi))
-
-    return step_apart
-
-
-step_apart = step_apart_with(apart)
-
-
 def net_box(court: Court, radius: float) -> tuple[np.ndarray, np.ndarray]:
     """The net as an axis-aligned box grown by the shuttle radius (world frame)."""
     lo = np.array([-court.net_half_thickness - radius, -court.net_half_span - radius, -BIG])
@@ -281,14 +155,3 @@ def net_box(court: Court, radius: float) -> tuple[np.ndarray, np.ndarray]:
 def floor_box() -> tuple[np.ndarray, np.ndarray]:
     """Everything below the floor, as a box: a shuttle has landed when its centre enters it."""
     return np.array([-BIG, -BIG, -BIG]), np.array([BIG, BIG, 0.0])
-
-
-def landing_in(court: Court, depth: np.ndarray, y: np.ndarray, full_court: bool) -> np.ndarray:
-    """Whether a landing at ``depth`` metres beyond the net (receiver's side) and ``y`` is in.
-
-    ``full_court`` judges the whole half court (realistic); otherwise the original builds'
-    trigger box x in [0.386, 6.658] is used."""
-    in_y = np.abs(y) <= court.half_width
-    if full_court:
-        return in_y & (depth > 0.0) & (depth <= court.half_length)
-    return in_y & (depth >= court.paper_zone_near) & (depth <= court.paper_zone_far)

@@ -1,21 +1,26 @@
 """Shuttle flight models (docs/reference.md §4), batched over N shuttles and advanced in place.
 
 Every model is selected by name (``SHUTTLE_MODELS``). Positions and velocities are world-frame
-arrays of shape (N, 3); the models own no state beyond what ``ShuttleState`` holds.
+arrays of shape (N, 3); the models own no state beyond what ``ShuttleState`` holds. The flight
+of every model is written once (``fly``), compiled: the game's steps inline it
+(``rallysim.core.kernels.step``), and ``ShuttleModel.advance`` runs it on its own.
 """
 
 from __future__ import annotations
 
+import functools
 import math
-from types import SimpleNamespace
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 
-from rallysim.core.lanes import ARRAYS, Ops
+from rallysim.core import native
 
 GRAVITY = 9.81
 RADIUS = 0.1  # the original's overlap sphere; all models judge hits, net and floor with it
+# the flight models' codes (``code``, the constants' ``flight``)
+PAPER, PAPER_ALG1, AERO = 0, 1, 2
 
 
 class ShuttleState:
@@ -33,10 +38,6 @@ class ShuttleState:
         self.motion[3:] = np.asarray(vel, dtype=np.float64).T
         self.shot_speed = shot_speed  # (N,) speed at the last serve or hit
         self.shot_time = shot_time  # (N,) seconds since the last serve or hit
-        self._lanes: SimpleNamespace | None = None  # made by lanes()
-
-    def __getstate__(self) -> dict[str, Any]:
-        return {**self.__dict__, "_lanes": None}  # a copy makes views of its own arrays
 
     @property
     def pos(self) -> np.ndarray:
@@ -64,32 +65,28 @@ class ShuttleState:
         of ``motion``."""
         return self.motion[:3, :, None], self.motion[3:, :, None]
 
-    def lanes(self) -> SimpleNamespace:
-        """Array lanes (``rallysim.core.lanes``) of this state for ``ShuttleModel.fly``: pos, vel,
-        shot_speed, shot_time (views, made once). A plain namespace: flight models change lanes
-        in place only, so no write-through is needed."""
-        if self._lanes is None:
-            pos, vel = self.vectors()
-            self._lanes = SimpleNamespace(pos=pos, vel=vel, shot_speed=self.shot_speed[:, None],
-                                          shot_time=self.shot_time[:, None])
-        return self._lanes
-
 
 class ShuttleModel:
-    """A flight model. Subclasses implement ``fly``."""
+    """A flight model: its numbers for ``fly``."""
 
     name: str = ""
+    code: int = -1  # PAPER, PAPER_ALG1 or AERO
     net_blocks: bool = False  # True: the net stops the shuttle; False: a net touch is only noted
     full_court: bool = False  # True: in/out on the full half court; False: the original trigger box
 
-    def advance(self, s: ShuttleState, dt: float) -> None:
-        """Advance the shuttles of ``s`` by ``dt`` seconds, in place."""
-        self.fly(s.lanes(), dt, ARRAYS)
+    def numbers(self, dt: float) -> dict[str, float]:
+        """The flight's constants (``FLIGHT_FIELDS``) for steps of ``dt`` seconds."""
+        return dict(dt=dt, fall=GRAVITY * dt, factor=float(getattr(self, "factor", 0.0)),
+                    flight=self.code, window=PaperAlg1Shuttle.window,
+                    aero_k=float(getattr(self, "k", 0.0)),
+                    max_decay=AeroShuttle.max_decay_per_substep, half_gravity=0.5 * GRAVITY)
 
-    def fly(self, g: Any, dt: float, ops: Ops) -> None:
-        """``advance`` on lanes ``g`` (vectors ``pos`` and ``vel``, ``shot_speed``,
-        ``shot_time``), which it changes in place only (``ShuttleState.lanes``)."""
-        raise NotImplementedError
+    def advance(self, s: ShuttleState, dt: float) -> None:
+        """Advance the shuttles of ``s`` by ``dt`` seconds, in place (``fly``)."""
+        record = np.zeros(1, FLIGHT_DTYPE)
+        for name, value in self.numbers(dt).items():
+            record[name] = value
+        _compiled_advance()(s.motion, s.shot_time, s.shot_speed, record)
 
     def terminal_speed(self) -> float:
         raise NotImplementedError
@@ -100,18 +97,12 @@ class PaperShuttle(ShuttleModel):
     v <- (v + g dt)(1 - c dt); p <- p + v dt."""
 
     name = "paper"
+    code = PAPER
     linear_damping = 1.5  # 1/s: Unity's drag, giving the factor 0.97 per 0.02 s step
 
     def __init__(self, dt: float = 0.02) -> None:
         self.dt = dt
         self.factor = 1.0 - self.linear_damping * dt
-
-    def fly(self, g: Any, dt: float, ops: Ops) -> None:
-        v = g.vel
-        v[2] -= GRAVITY * dt
-        ops.scale(v, self.factor)
-        ops.axpy(g.pos, v, dt)
-        g.shot_time += dt
 
     def terminal_speed(self) -> float:
         # fixed point of v = (v + g dt) f  ->  v = f g dt / (1 - f)
@@ -123,16 +114,9 @@ class PaperAlg1Shuttle(PaperShuttle):
     the speed is forced to s0 (1 - t), direction kept; its timer restarts at every shot."""
 
     name = "paper-alg1"
+    code = PAPER_ALG1
     window = 0.6
 
-    def fly(self, g: Any, dt: float, ops: Ops) -> None:
-        super().fly(g, dt, ops)
-        active = g.shot_time < self.window
-        if ops.any(active):
-            vx, vy, vz = g.vel
-            speed = ops.sqrt((vx * vx + vy * vy) + vz * vz)  # np.linalg.norm's sum
-            target = g.shot_speed * (1.0 - g.shot_time)
-            ops.scale(g.vel, ops.where(active, ops.divide(target, speed), 1.0))
 
 
 class AeroShuttle(ShuttleModel):
@@ -144,6 +128,7 @@ class AeroShuttle(ShuttleModel):
     sub-steps are short enough that k |v| h <= 0.1, so a 100 m/s smash decays accurately."""
 
     name = "aero"
+    code = AERO
     net_blocks = True
     full_court = True
     v_terminal = 6.7
@@ -152,27 +137,99 @@ class AeroShuttle(ShuttleModel):
     def __init__(self, dt: float = 0.02) -> None:
         self.k = GRAVITY / self.v_terminal**2
 
-    def fly(self, g: Any, dt: float, ops: Ops) -> None:
-        vmax = float(ops.sqrt(ops.largest(_speed_squared(g.vel))))
-        n = max(1, math.ceil(self.k * vmax * dt / self.max_decay_per_substep))
-        h = dt / n
-        v = g.vel
-        for _ in range(n):
-            v[2] -= 0.5 * GRAVITY * h
-            ops.shrink(v, 1.0 + h * self.k * ops.sqrt(_speed_squared(v)))
-            v[2] -= 0.5 * GRAVITY * h
-            ops.axpy(g.pos, v, h)
-        g.shot_time += dt
-
     def terminal_speed(self) -> float:
         return self.v_terminal
 
 
-def _speed_squared(v: Any) -> Any:
-    """|v|^2 of a vector lane, summed in the order of ``np.einsum("ij,ij->i", v, v)`` (x, z,
-    then y), which the recorded episodes were computed with."""
-    vx, vy, vz = v
-    return (vx * vx + vz * vz) + vy * vy
+# the constants ``fly`` reads, by name from a record (``GameConstants`` has them too)
+FLIGHT_FIELDS = ("dt", "fall", "factor", "flight", "window", "aero_k", "max_decay",
+                 "half_gravity")
+FLIGHT_DTYPE = np.dtype([(name, np.int64 if name == "flight" else np.float64)
+                         for name in FLIGHT_FIELDS])
+
+
+def substeps(m: np.ndarray, k: Any, n: int) -> int:
+    """aero's sub-steps this step: from the fastest of the ``n`` shuttles (``m``: their
+    motion, (6, N)), held ones too; 1 for the other models. |v|^2 is summed in the order of
+    ``np.einsum("ij,ij->i", v, v)`` (x, z, then y), which the recorded episodes used."""
+    if k.flight != AERO:
+        return 1
+    largest = 0.0
+    for e in range(n):
+        vx, vy, vz = m[3, e], m[4, e], m[5, e]
+        s = (vx * vx + vz * vz) + vy * vy
+        if e == 0 or s > largest or s != s:
+            largest = s
+    count = math.ceil(k.aero_k * math.sqrt(largest) * k.dt / k.max_decay)
+    return max(1, count)
+
+
+def fly(m: np.ndarray, shot_time_a: np.ndarray, shot_speed_a: np.ndarray, k: Any, e: int,
+        count: int) -> None:
+    """Shuttle ``e`` (``m``: the motion) through one step of ``k.dt`` seconds, its shot time
+    on: the paper flight (docs/reference.md §4.1: v <- (v + g dt)(1 - c dt); p <- p + v dt),
+    with Algorithm 1's speed s0 (1 - t) in its window (paper-alg1), or aero's ``count``
+    sub-steps (docs/reference.md §4.2: gravity split around an exact drag step)."""
+    px, py, pz, vx, vy, vz = m[0, e], m[1, e], m[2, e], m[3, e], m[4, e], m[5, e]
+    dt = k.dt
+    if k.flight == AERO:
+        h = dt / count
+        half = k.half_gravity * h
+        for _ in range(count):
+            vz -= half
+            d = 1.0 + h * k.aero_k * math.sqrt((vx * vx + vz * vz) + vy * vy)
+            vx /= d
+            vy /= d
+            vz /= d
+            vz -= half
+            px += vx * h
+            py += vy * h
+            pz += vz * h
+        shot_time = shot_time_a[e] + dt
+    else:
+        vz -= k.fall
+        f = k.factor
+        vx *= f
+        vy *= f
+        vz *= f
+        px += vx * dt
+        py += vy * dt
+        pz += vz * dt
+        shot_time = shot_time_a[e] + dt
+        if k.flight == PAPER_ALG1 and shot_time < k.window:
+            # the speed forced to s0 (1 - t), direction kept (np.linalg.norm's sum)
+            speed = math.sqrt((vx * vx + vy * vy) + vz * vz)
+            target = shot_speed_a[e] * (1.0 - shot_time)
+            r = target / speed if speed > 0 else 0.0
+            vx *= r
+            vy *= r
+            vz *= r
+    shot_time_a[e] = shot_time
+    m[0, e], m[1, e], m[2, e], m[3, e], m[4, e], m[5, e] = px, py, pz, vx, vy, vz
+
+
+def flight_with(njit: Callable) -> tuple[Callable, Callable]:
+    """``substeps`` and ``fly`` compiled by ``njit``, to be inlined where they are called."""
+    inline = njit(inline="always")
+    return inline(substeps), inline(fly)
+
+
+def _advance_with(njit: Callable) -> Callable:
+    count_of, fly_one = flight_with(njit)
+
+    def advance(m, shot_time, shot_speed, record):
+        k = record[0]
+        n = m.shape[1]
+        count = count_of(m, k, n)
+        for e in range(n):
+            fly_one(m, shot_time, shot_speed, k, e, count)
+
+    return advance
+
+
+@functools.cache
+def _compiled_advance() -> Callable:
+    return native.jit(_advance_with(native.numba_module().njit), error_model="numpy")
 
 
 SHUTTLE_MODELS: dict[str, type[ShuttleModel]] = {
