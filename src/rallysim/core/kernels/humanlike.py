@@ -11,8 +11,6 @@ import math
 from collections.abc import Callable
 from typing import Any
 
-import numpy as np
-
 from rallysim.core import humanlike_step, native
 from rallysim.core.kernels import step
 from rallysim.core.kernels.arrays import HumanLikeArrays
@@ -72,13 +70,9 @@ class HumanLikeKernel(step.GameKernel):
     compiled = native.Kernel(lambda: _compile())
 
     def arrays(self, game: Any) -> HumanLikeArrays:
-        b, sh, st = game.bodies, game.shuttle, game.state
+        b = game.bodies
         return HumanLikeArrays(
-            fwd=b.forward, base_x=b.base_x, base_moved=b.base_moved, motion=sh.motion,
-            shot_speed=sh.shot_speed, shot_time=sh.shot_time, in_play=st.in_play,
-            active=game._active, armed=st.armed, has_hit=st.has_hit,
-            last_hitter=st.last_hitter, hits=st.hits, net_touched=st.net_touched, q=game._q,
-            q0=np.empty_like(game._q), gap=game._gap, lo=game._lo, hi=game._hi,
+            **self.shared(game),
             mass=b._mass, m_index=b._m_index, qpos=b.qpos, qvel=b.qvel, ctrl=b.torque,
             bias=b._bias, target=b.target, torque_limit=b.torque_limit, side=b._side,
             face0=b._face0, face=b._face_pos, mat=b._face_mat, hips=b.hips,

@@ -142,13 +142,9 @@ class SimpleKernel(step.GameKernel):
     compiled = native.Kernel(lambda: Compiled.get()[0])
 
     def arrays(self, game: Any) -> SimpleArrays:
-        b, sh, st = game.bodies, game.shuttle, game.state
+        b = game.bodies
         return SimpleArrays(
-            fwd=b.forward, base_x=b.base_x, base_moved=b.base_moved, motion=sh.motion,
-            shot_speed=sh.shot_speed, shot_time=sh.shot_time, in_play=st.in_play,
-            active=game._active, armed=st.armed, has_hit=st.has_hit,
-            last_hitter=st.last_hitter, hits=st.hits, net_touched=st.net_touched, q=game._q,
-            q0=np.empty_like(game._q), gap=game._gap, lo=game._lo, hi=game._hi,
+            **self.shared(game),
             theta=b.theta, omega=b.omega, torque=b.torque, mocap=b.mocap, theta0=b._theta0,
             base_step=b._base_step, target=b.target, neg_limit=b._neg_limit,
             torque_limit=b.torque_limit)

@@ -397,8 +397,19 @@ class GameKernel:
         return {**self.__dict__, "_state": None, "_addresses": (0, 0)}
 
     def arrays(self, game: Any) -> tuple:
-        """Views of ``game``'s arrays, as the kind's named tuple."""
+        """Views of ``game``'s arrays, as the kind's named tuple (``shared`` and its own)."""
         raise NotImplementedError
+
+    @staticmethod
+    def shared(game: Any) -> dict[str, np.ndarray]:
+        """The arrays every kind's named tuple begins with (those the shared steps read)."""
+        b, sh, st = game.bodies, game.shuttle, game.state
+        return dict(
+            fwd=b.forward, base_x=b.base_x, base_moved=b.base_moved, motion=sh.motion,
+            shot_speed=sh.shot_speed, shot_time=sh.shot_time, in_play=st.in_play,
+            active=game._active, armed=st.armed, has_hit=st.has_hit,
+            last_hitter=st.last_hitter, hits=st.hits, net_touched=st.net_touched, q=game._q,
+            q0=np.empty_like(game._q), gap=game._gap, lo=game._lo, hi=game._hi)
 
     def body_constants(self, game: Any) -> dict[str, float]:
         """The bodies' own ``GameConstants``."""
