@@ -14,6 +14,7 @@ import pytest
 from rallysim.core import humanlike_step
 from rallysim.core.game import Game
 from rallysim.core.humanlike import BRAKE_SHARE, N_ACTIONS, N_JOINTS, HumanLikeBodies
+from rallysim.core.tasks.simple_return import approach_counts
 from rallysim.envs.humanlike_return_v0 import HumanLikeReturnEnv, HumanLikeReturnVectorEnv
 from rallysim.policies.scripted_swing import ScriptedSwing
 from tests.kernels import play, same_bits
@@ -161,12 +162,12 @@ def test_a_copy_mid_episode_keeps_replaying():
 
 
 @pytest.mark.slow
-def test_shaped_games_replay_a_batch():
-    """The approach counts of ``Game(shaping=True)`` (the HUMAN-LIKE task does not shape):
-    each game alone as the env of a batch seeded alike."""
-    games = [Game(1, 1, seed=5 + i, shaping=True, bodies=HumanLikeBodies(1, 1))
-             for i in range(2)]
-    batch = Game(2, 1, seed=5, shaping=True, bodies=HumanLikeBodies(2, 1))
+def test_traced_games_replay_a_batch():
+    """Each physics step's trace (``Game.trace``) and the approach counts made of it
+    (``simple_return.approach_counts``, on Python numbers for one game, on arrays for a
+    batch): each game alone as the env of a batch seeded alike."""
+    games = [Game(1, 1, seed=5 + i, bodies=HumanLikeBodies(1, 1)) for i in range(2)]
+    batch = Game(2, 1, seed=5, bodies=HumanLikeBodies(2, 1))
     for g in (*games, batch):
         g.reset(np.arange(g.n_envs))
     rng = np.random.default_rng(5)
@@ -175,16 +176,21 @@ def test_shaped_games_replay_a_batch():
         a = rng.uniform(-1, 1, (1, 1, N_ACTIONS))
         if step % 3 == 0:  # the hips stay put: steps that do not close in
             a[..., :2] = 0.0
-        events = [g.step(x) for g, x in zip(games, (a, -a), strict=True)]
-        batch_events = batch.step(np.concatenate([a, -a]))
+        for g, x in zip(games, (a, -a), strict=True):
+            g.step(x)
+        batch.step(np.concatenate([a, -a]))
+        counts = approach_counts(batch.trace, False)
         for i, g in enumerate(games):
             for x, y in ((g._gap, batch._gap[i:i + 1]), (g._q[:, :1], batch._q[i:i + 1, :1]),
                          (g.shuttle.motion, batch.shuttle.motion[:, i:i + 1]),
-                         (events[i].approach_good, batch_events.approach_good[i:i + 1]),
-                         (events[i].approach_bad, batch_events.approach_bad[i:i + 1])):
+                         (g.trace.gap, batch.trace.gap[:, i:i + 1]),
+                         (g.trace.moved, batch.trace.moved[:, i:i + 1]),
+                         (g.trace.live, batch.trace.live[:, i:i + 1]),
+                         (g.trace.has_hit, batch.trace.has_hit[:, i:i + 1])):
                 assert same_bits(x, y), (step, i)
-        good += int(batch_events.approach_good.sum())
-        bad += int(batch_events.approach_bad.sum())
+            assert approach_counts(g.trace, True) == tuple(int(c[i]) for c in counts)
+        good += int(counts[0].sum())
+        bad += int(counts[1].sum())
         ended = np.flatnonzero(~batch.state.in_play)
         rallies += len(ended)
         for i in ended:

@@ -210,7 +210,7 @@ def test_one_compiled_signature_serves_every_game():
     for _ in range(50):
         play(env, np.zeros(3, np.float32))
     for n, p in ((3, 2), (2, 1)):
-        g = Game(n, p, shuttle="aero", max_hits=2, shaping=True)
+        g = Game(n, p, shuttle="aero", max_hits=2)
         g.reset(np.arange(n))
         g.step(np.zeros((n, p, 3)), np.ones(n, bool))
     # one signature each: every game's arrays are of the same types

@@ -24,8 +24,6 @@ class Events:
     land_point: np.ndarray  # (N, 3) world landing point
     land_side: np.ndarray  # (N,) int: the player whose half it landed in
     land_in: np.ndarray  # (N,) bool: inside that half's court (paper trigger box or full half)
-    approach_good: np.ndarray  # (N, P) physics steps the base closed in on the shuttle (shaping)
-    approach_bad: np.ndarray  # (N, P) physics steps it did not
 
     @classmethod
     def empty(cls, n: int, p: int) -> Events:
@@ -35,27 +33,25 @@ class Events:
             hit_velocity=np.full((n, p, 3), np.nan), net_touch=np.zeros(n, bool),
             landed=np.zeros(n, bool), land_point=np.zeros((n, 3)),
             land_side=np.zeros(n, np.int64), land_in=np.zeros(n, bool),
-            approach_good=np.zeros((n, p), np.int64), approach_bad=np.zeros((n, p), np.int64),
         )
 
     def copy(self) -> Events:
         """A copy sharing no array (written out: this runs every decision)."""
         return Events(self.hit.copy(), self.hit_speed.copy(), self.hit_point.copy(),
                       self.hit_velocity.copy(), self.net_touch.copy(), self.landed.copy(),
-                      self.land_point.copy(), self.land_side.copy(), self.land_in.copy(),
-                      self.approach_good.copy(), self.approach_bad.copy())
+                      self.land_point.copy(), self.land_side.copy(), self.land_in.copy())
 
 
 class EventRows:
     """Hands out a new ``Events`` (no events yet) for each decision of N games of P players.
 
     For small batches they are rows of blocks made ``rows`` decisions at a time: taking a row
-    of a block is cheaper than allocating a small array, and a single game takes 11 arrays per
+    of a block is cheaper than allocating a small array, and a single game takes 9 arrays per
     decision. Rows never handed out twice, so no two ``Events`` share memory. Larger batches
     copy a blank ``Events`` instead (their blocks would be large; the copy's cost is small next
     to the rest of their decision)."""
 
-    block_bytes = 1 << 12  # the most one block of one field (of all fields: x 11) may hold
+    block_bytes = 1 << 12  # the most one block of one field (of all fields: x 9) may hold
     min_rows = 8  # fewer rows per block: copy instead
 
     def __init__(self, n: int, p: int) -> None:

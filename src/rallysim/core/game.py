@@ -21,13 +21,14 @@ from rallysim.core.events import EventRows, Events
 from rallysim.core.humanlike import HumanLikeBodies
 from rallysim.core.kernels.humanlike import HumanLikeKernel
 from rallysim.core.kernels.simple import SimpleKernel
-from rallysim.core.kernels.step import FLIGHTS, GameKernel
+from rallysim.core.kernels.step import FLIGHTS, GameKernel, GameTrace
 from rallysim.core.lanes import ARRAYS, SCALARS, Ops
 from rallysim.core.serve import MachineServe, Serve
 from rallysim.core.shuttle import RADIUS, ShuttleState, make_shuttle_model
 from rallysim.core.state import RallyState
 
-__all__ = ["PHYSICS_DT", "PHYSICS_STEPS_PER_DECISION", "Events", "Game", "validate_seed"]
+__all__ = ["PHYSICS_DT", "PHYSICS_STEPS_PER_DECISION", "Events", "Game", "GameTrace",
+           "validate_seed"]
 
 PHYSICS_DT = 0.02
 PHYSICS_STEPS_PER_DECISION = 5
@@ -50,22 +51,21 @@ def validate_seed(seed: Any) -> int | None:
 class Game:
     """N batched games with P in {1, 2} players each, on one shuttle model.
 
-    The players are ``bodies`` (default: SIMPLE players); every rule here works through the
-    ``PlayerBodies`` protocol, so another player model shares the whole rulebook. ``serve``
-    starts each rally (default: the machine serve of docs/reference.md §4.3). The rule set ``rules``
-    (``rallysim.core.rules.Rules``) is derived once from the shuttle model and the player
-    count. ``shaping`` counts the low-level task's approach steps before each player's first
-    hit (``Events.approach_good`` and ``approach_bad``). ``max_hits`` is a rally's hit cap:
-    the hit that reaches it ends the judging of that rally until its next serve (no later hit,
-    net touch or landing counts, even within the same decision); None: no cap.
+    The players are ``bodies`` (default: SIMPLE players; or ``HumanLikeBodies``). ``serve``
+    starts each rally (default: the machine serve of docs/reference.md §4.3). The rule set
+    ``rules`` (``rallysim.core.rules.Rules``) is derived once from the shuttle model and the
+    player count. ``max_hits`` is a rally's hit cap: the hit that reaches it ends the judging
+    of that rally until its next serve (no later hit, net touch or landing counts, even within
+    the same decision); None: no cap. ``trace`` holds what a task may need of each physics
+    step of the last decision (``GameTrace``: the bases' x-distances to the shuttle, their
+    motion, the hit state).
 
     The physics steps of a decision, judging included, run in one compiled call for every
-    batch size (``rallysim.core.kernels.step``), with the players' kind's motion
-    (``SimpleBodies`` or ``HumanLikeBodies``).
+    batch size (``rallysim.core.kernels.step``), with the players' kind's motion.
     """
 
     def __init__(self, n_envs: int, n_players: int = 1, shuttle: str = "paper",
-                 seed: int | None = None, shaping: bool = False,
+                 seed: int | None = None,
                  bodies: PlayerBodies | None = None, serve: Serve | None = None,
                  max_hits: int | None = None) -> None:
         self.n_envs, self.n_players = n_envs, n_players
@@ -87,7 +87,6 @@ class Game:
         seed = validate_seed(seed)
         self.rngs = [np.random.default_rng(None if seed is None else seed + i)
                      for i in range(n_envs)]
-        self.shaping = shaping
         n, p = n_envs, n_players
         self.state = RallyState.zeros(n, p)
         self._active = np.ones(n, bool)
@@ -101,7 +100,10 @@ class Game:
         self._hi = np.stack([half] * p + [net_hi, floor_hi])
         self._fwd = self.bodies.forward  # (N, P)
         self._q = np.zeros((n, p + 2, 3))  # tested points at the end of the step
-        self._gap = np.zeros((n, p))  # |base x - shuttle x| for shaping
+        self._gap = np.zeros((n, p))  # |base x - shuttle x| after the last physics step
+        s = PHYSICS_STEPS_PER_DECISION
+        self.trace = GameTrace(gap=np.zeros((s + 1, n, p)), moved=np.zeros((s, n, p), bool),
+                               live=np.zeros((s, n), bool), has_hit=np.zeros((s, n, p), bool))
         # the tasks' and observations' lanes (rallysim.core.lanes): Python numbers for one
         # game of one player
         self.ops: Ops = SCALARS if (n, p) == (1, 1) else ARRAYS
@@ -227,10 +229,12 @@ class Game:
 
     def _refresh(self) -> None:
         """Recompute what the next physics step starts from (the shuttle in the faces' frames,
-        the shaping's gaps) after the state was set by hand."""
+        the bases' x-distances to it) after the state was set by hand."""
         self._kernel.refresh(self)
 
     def _run(self, steps: int) -> None:
+        if not 0 <= steps <= PHYSICS_STEPS_PER_DECISION:  # (the trace's rows)
+            raise ValueError(f"a call runs at most {PHYSICS_STEPS_PER_DECISION} physics steps")
         self._kernel.run(self, steps)
 
     def _physics_step(self) -> None:

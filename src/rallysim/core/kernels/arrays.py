@@ -32,9 +32,13 @@ class SimpleArrays(NamedTuple):
     net_touched: np.ndarray  # (N,) bool
     q: np.ndarray  # (N, P + 2, 3) the tested points: the shuttle in each face's frame, the world
     q0: np.ndarray  # (N, P + 2, 3) scratch: ``q`` at a physics step's start
-    gap: np.ndarray  # |base x - shuttle x| (own frame) for the shaping
+    gap: np.ndarray  # |base x - shuttle x| (own frame) after the last physics step
     lo: np.ndarray  # (P + 2, 3) the tested boxes: the faces (own frames), the net, the floor
     hi: np.ndarray
+    trace_gap: np.ndarray  # ``GameTrace``'s arrays, written every physics step
+    trace_moved: np.ndarray
+    trace_live: np.ndarray
+    trace_has_hit: np.ndarray
     # -- SIMPLE's own
     theta: np.ndarray  # arm angles (MuJoCo's qpos)
     omega: np.ndarray  # arm rates (qvel)
@@ -70,6 +74,10 @@ class HumanLikeArrays(NamedTuple):
     gap: np.ndarray
     lo: np.ndarray
     hi: np.ndarray
+    trace_gap: np.ndarray
+    trace_moved: np.ndarray
+    trace_live: np.ndarray
+    trace_has_hit: np.ndarray
     # -- HUMAN-LIKE's own (``rallysim.core.humanlike_step``'s physics step)
     mass: np.ndarray  # MuJoCo's sparse joint-space inertia (data.M)
     m_index: np.ndarray  # (N, P, 8, 8) indices into it

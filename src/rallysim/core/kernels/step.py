@@ -4,10 +4,10 @@ One call runs a decision's physics steps (``Game._run``) over the batch's games 
 the players' motion around MuJoCo's step of the one batched model (each kind's own: SIMPLE in
 ``rallysim.core.kernels.simple``, HUMAN-LIKE in ``rallysim.core.kernels.humanlike``), the
 shuttle's flight (``paper``, ``paper-alg1``, ``aero``: ``rallysim.core.shuttle``), the shuttle in
-each face's frame, the approach shaping, and the swept box test that decides hits, net touches
-and landings, which are applied as the rules say (``rallysim.core.rules``), events included. A
-game out of play, or left out by ``Game.step``'s ``active``, moves its bodies while its shuttle
-is held (its shot time runs on) and is not judged.
+each face's frame, and the swept box test that decides hits, net touches and landings, which
+are applied as the rules say, events included; and the trace a task may read of each physics
+step (``GameTrace``). A game out of play, or left out by ``Game.step``'s ``active``, moves its
+bodies while its shuttle is held (its shot time runs on) and is not judged.
 
 A player kind gives four compiled pieces (``Pieces``): its motion, the face's frame, the racket's
 velocity at a hit and the shot that velocity makes. Everything else is here, once.
@@ -56,8 +56,17 @@ class GameEvents(NamedTuple):
     land_point: np.ndarray
     land_side: np.ndarray
     land_in: np.ndarray
-    approach_good: np.ndarray
-    approach_bad: np.ndarray
+
+
+class GameTrace(NamedTuple):
+    """What a task may need of every physics step of a decision, besides its events (the
+    low-level task's approach shaping reads it): rows are the decision's physics steps."""
+
+    gap: np.ndarray  # (S + 1, N, P) own-frame |shuttle x - base x|: at the start, after each
+    moved: np.ndarray  # (S, N, P) bool: the base moved in the step
+    live: np.ndarray  # (S, N) bool: in play and not held (judged) in the step
+    has_hit: np.ndarray  # (S, N, P) bool: the player had hit in this rally before the step's
+    # judging
 
 
 class GameConstants(NamedTuple):
@@ -81,7 +90,6 @@ class GameConstants(NamedTuple):
     half_length: float
     zone_near: float
     zone_far: float
-    shaping: bool
     max_hits: int  # the rally hit cap; -1: none
     inv_dt: float  # 1 / the bodies' dt
     base_lo: float  # SIMPLE: the base's own-frame x range
@@ -110,7 +118,7 @@ def constants(game: Any, **body: float) -> np.ndarray:
         net=NET_CODES[game.rules.net], net_face=court.net_half_thickness + RADIUS,
         full_court=bool(game.rules.full_court), half_width=float(court.half_width),
         half_length=float(court.half_length), zone_near=float(court.paper_zone_near),
-        zone_far=float(court.paper_zone_far), shaping=bool(game.shaping),
+        zone_far=float(court.paper_zone_far),
         max_hits=-1 if game.max_hits is None else int(game.max_hits), inv_dt=1.0 / game.bodies.dt,
         **body)
     record = np.zeros(1, CONSTANTS_DTYPE)
@@ -286,7 +294,7 @@ def steps_with(njit: Callable, pieces: Pieces) -> tuple[Callable, Callable]:
             land(a, ev, k, e, t_floor, p)
 
     @inline
-    def step(model, data, a, ev, k, n, p):
+    def step(model, data, a, ev, k, n, p, s):
         """One physics step of the batch: the bodies move, the shuttles fly, then one swept
         test for everything (the faces in their frames, the net, the floor) decides what
         happened."""
@@ -294,7 +302,6 @@ def steps_with(njit: Callable, pieces: Pieces) -> tuple[Callable, Callable]:
         fwd, base_x, armed = a.fwd, a.base_x, a.armed
         shot_time, shot_speed, in_play, active = a.shot_time, a.shot_speed, a.in_play, a.active
         has_hit, moved, gaps, hits = a.has_hit, a.base_moved, a.gap, a.hits
-        good_a, bad_a = ev.approach_good, ev.approach_bad
         for e in range(n):  # the points the swept test starts from
             for c in range(p):
                 for axis in range(3):
@@ -313,15 +320,17 @@ def steps_with(njit: Callable, pieces: Pieces) -> tuple[Callable, Callable]:
                 fly(m, shot_time, shot_speed, k, e, count)
                 m[0, e], m[1, e], m[2, e], m[3, e], m[4, e], m[5, e] = px, py, pz, vx, vy, vz
             observe(a, k, e, p)
-            if k.shaping:  # the steps each base closed in on the shuttle before a first hit
-                px = m[0, e]
-                for j in range(p):
-                    gap = abs(fwd[e, j] * px - base_x[e, j])
-                    todo = live and not has_hit[e, j]
-                    good = moved[e, j] and gap < gaps[e, j] and todo
-                    good_a[e, j] += good
-                    bad_a[e, j] += todo and not good
-                    gaps[e, j] = gap
+            # the trace: each base's x-distance to the shuttle, its motion, the hit state
+            px = m[0, e]
+            a.trace_live[s, e] = live
+            for j in range(p):
+                if s == 0:
+                    a.trace_gap[0, e, j] = gaps[e, j]
+                gap = abs(fwd[e, j] * px - base_x[e, j])
+                a.trace_gap[s + 1, e, j] = gap
+                a.trace_moved[s, e, j] = moved[e, j]
+                a.trace_has_hit[s, e, j] = has_hit[e, j]
+                gaps[e, j] = gap
             if not (live and below_cap(hits, k, e)):
                 continue
             # the swept test: the first armed player met hits; the net; the floor
@@ -341,19 +350,20 @@ def steps_with(njit: Callable, pieces: Pieces) -> tuple[Callable, Callable]:
 
     @njit
     def steps_of(model, data, a, events, constants, steps):
-        """``steps`` physics steps of the batch, from and to its arrays (``events``: the
-        arrays of ``GameEvents``, as a plain tuple, which costs a call less; ``constants``:
-        a record of ``CONSTANTS_DTYPE``)."""
+        """``steps`` physics steps of the batch (at most the trace's rows), from and to its
+        arrays (``events``: the arrays of ``GameEvents``, as a plain tuple, which costs a call
+        less; ``constants``: a record of ``CONSTANTS_DTYPE``)."""
         ev = GameEvents(*events)
         k = constants[0]
         n, p = a.fwd.shape
-        for _ in range(steps):
-            step(model, data, a, ev, k, n, p)
+        for s in range(steps):
+            step(model, data, a, ev, k, n, p, s)
 
     @njit
     def refresh(a, constants):
         """What the next physics step starts from, after the state was set by hand
-        (``Game._refresh``): the shuttle in each face's frame and the shaping's gaps."""
+        (``Game._refresh``): the shuttle in each face's frame and the bases' x-distances to
+        it."""
         k = constants[0]
         n, p = a.fwd.shape
         m, fwd, base_x = a.motion, a.fwd, a.base_x
@@ -409,7 +419,9 @@ class GameKernel:
             shot_speed=sh.shot_speed, shot_time=sh.shot_time, in_play=st.in_play,
             active=game._active, armed=st.armed, has_hit=st.has_hit,
             last_hitter=st.last_hitter, hits=st.hits, net_touched=st.net_touched, q=game._q,
-            q0=np.empty_like(game._q), gap=game._gap, lo=game._lo, hi=game._hi)
+            q0=np.empty_like(game._q), gap=game._gap, lo=game._lo, hi=game._hi,
+            trace_gap=game.trace.gap, trace_moved=game.trace.moved, trace_live=game.trace.live,
+            trace_has_hit=game.trace.has_hit)
 
     def body_constants(self, game: Any) -> dict[str, float]:
         """The bodies' own ``GameConstants``."""
@@ -417,8 +429,8 @@ class GameKernel:
 
     def _set_constants(self, game: Any) -> None:
         self._record = constants(game, **self.body_constants(game))
-        # (a game's shaping and hit cap are attributes that may be set between decisions)
-        self._settings = (game.shaping, game.max_hits)
+        # (a game's hit cap is an attribute that may be set between decisions)
+        self._max_hits = game.max_hits
 
     def functions(self) -> Compiled:
         """The kind's compiled functions (built, or loaded from the cache, on first use)."""
@@ -436,13 +448,13 @@ class GameKernel:
         """What the kind's bodies must do before a compiled call reads them."""
 
     def refresh(self, game: Any) -> None:
-        """``Game._refresh``: the shuttle in each face's frame and the shaping's gaps."""
+        """``Game._refresh``: the shuttle in each face's frame and the bases' x-distances."""
         self.prepare(game)
         self.functions().refresh(self.state(game), self._record)
 
     def run(self, game: Any, steps: int) -> None:
         """``steps`` physics steps of ``game``."""
-        if (game.shaping, game.max_hits) != self._settings:
+        if game.max_hits != self._max_hits:
             self._set_constants(game)
         self.prepare(game)
         ev = game.events
@@ -451,5 +463,5 @@ class GameKernel:
         self.functions().steps(
             model, data, state,
             (ev.hit, ev.hit_speed, ev.hit_point, ev.hit_velocity, ev.net_touch, ev.landed,
-             ev.land_point, ev.land_side, ev.land_in, ev.approach_good, ev.approach_bad),
+             ev.land_point, ev.land_side, ev.land_in),
             self._record, steps)

@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from rallysim.core.game import Game
+from rallysim.core.game import Game, GameTrace
 from rallysim.core.lanes import column
 from rallysim.core.reach import ShotPlanner
 from rallysim.core.serve import FedShots, MachineServe, Serve
@@ -65,7 +65,7 @@ class ReturnTask:
                              f"{target_depth_range}")
         positive_int(max_decisions, "max_decisions")
         self.n = num_envs
-        self.game = Game(num_envs, 1, shuttle=shuttle, seed=seed, shaping=True,
+        self.game = Game(num_envs, 1, shuttle=shuttle, seed=seed,
                          serve=incoming_serve(incoming))
         self.depth_range = (lo, hi)
         self.max_decisions = max_decisions
@@ -147,7 +147,8 @@ class ReturnTask:
         ev = game.step(actions[:, None, :])
         elapsed = ops.tick(self.elapsed)
         hit, landed, goal = read0(ev.hit), read(ev.landed), read(self.goal)
-        shaping = SHAPING_GOOD * read0(ev.approach_good) + SHAPING_BAD * read0(ev.approach_bad)
+        good, bad = approach_counts(game.trace, ops.scalar)
+        shaping = SHAPING_GOOD * good + SHAPING_BAD * bad
         reward = shaping + R_HIT * hit
         depth = error = np.nan
         landed_in, landing = False, 0.0
@@ -169,6 +170,30 @@ class ReturnTask:
                 # the reward's terms, which sum to it (Gymnasium's MuJoCo v5 habit)
                 "reward_shaping": shaping, "reward_hit": R_HIT * hit, "reward_landing": landing}
         return reward, landed, truncated, info
+
+
+def approach_counts(trace: GameTrace, scalar: bool) -> tuple[Any, Any]:
+    """The approach shaping's counts of the last decision (``Game.trace``): the physics steps
+    in which player 0's base closed in on the shuttle (it moved, and its x-distance to the
+    shuttle shrank) while the rally was live and before the player's first hit, and the live
+    steps before that hit in which it did not. One game (``scalar``): Python ints; else (N,)
+    arrays."""
+    if scalar:
+        gap = trace.gap[:, 0, 0].tolist()
+        moved, live = trace.moved[:, 0, 0].tolist(), trace.live[:, 0].tolist()
+        hit = trace.has_hit[:, 0, 0].tolist()
+        good = bad = 0
+        for s in range(len(live)):
+            if live[s] and not hit[s]:
+                if moved[s] and gap[s + 1] < gap[s]:
+                    good += 1
+                else:
+                    bad += 1
+        return good, bad
+    todo = trace.live & ~trace.has_hit[..., 0]
+    closer = todo & trace.moved[..., 0] & (trace.gap[1:, :, 0] < trace.gap[:-1, :, 0])
+    good = np.count_nonzero(closer, axis=0)
+    return good, np.count_nonzero(todo, axis=0) - good
 
 
 def incoming_serve(incoming: str) -> Serve:
