@@ -203,7 +203,7 @@ class Game:
         if frozen is not None:
             self._active[:] = active
             saved = self._snapshot(frozen)
-        self._run(PHYSICS_STEPS_PER_DECISION)
+        self._kernel.run(self, PHYSICS_STEPS_PER_DECISION)
         if frozen is not None:
             self._restore(frozen, saved)
             self._active[:] = True
