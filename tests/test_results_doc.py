@@ -17,7 +17,8 @@ DATA = ROOT / "docs" / "data"
 def test_every_generated_block_matches_its_json():
     doc = DOC.read_text()
     names = blocks(doc)
-    assert {"reproduce_default", "reproduce_seeds5", "reproduce_seeds5_cap1000"} <= set(names)
+    assert {"reproduce_default", "reproduce_seeds5", "reproduce_seeds5_cap1000",
+            "reproduce_seeds10"} <= set(names)
     assert regenerate(doc, DATA) == doc, "run: python -m rallysim.train.results_doc"
     assert main(["--check"]) == 0
 
@@ -31,7 +32,7 @@ def test_a_changed_number_is_caught(tmp_path):
     assert shown in block and shown in render(data)
     data["methods"]["HRL"]["mean"]["value"] = hrl + 0.01
     (tmp_path / "reproduce_seeds5.json").write_text(json.dumps(data))
-    for name in ("reproduce_default", "reproduce_seeds5_cap1000"):
+    for name in {m["name"] for m in BLOCK.finditer(doc)} - {"reproduce_seeds5"}:
         (tmp_path / f"{name}.json").write_text((DATA / f"{name}.json").read_text())
     assert regenerate(doc, tmp_path) != doc
     copy = tmp_path / "results.md"
