@@ -63,7 +63,7 @@ def raw_observation_lanes(game: Game) -> list:
     each for one game of one player, else arrays broadcastable to (N, P)."""
     b, ops, vectors = game.bodies, game.ops, game.vector_views()
     read = ops.read
-    theta, omega, fwd = read(b.theta), read(b.omega), read(game._fwd)
+    theta, omega, fwd = read(b.theta), read(b.omega), read(b.forward)
     (px, py, pz), (vx, vy, vz) = ops.vector(vectors["pos"]), ops.vector(vectors["vel"])
     s, c = ops.sin(theta), ops.cos(theta)
     half = 0.5 * theta
