@@ -13,10 +13,13 @@ them).
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
+from rallysim.core import native
 from rallysim.core.court import Court
 from rallysim.core.shuttle import ShuttleModel
 from rallysim.core.state import SERVE, RallyState
@@ -109,39 +112,38 @@ def sample_serve(u: np.ndarray, receiver: np.ndarray) -> tuple[np.ndarray, np.nd
     """Serves toward ``receiver`` (n,) players from uniforms ``u`` (n, 4) in [0, 1).
 
     Returns world-frame positions and velocities, (n, 3) each. Taking uniforms rather than a
-    generator lets every environment draw from its own stream."""
+    generator lets every environment draw from its own stream. Compiled, for one game as for
+    many: a reset costs one call."""
     n = len(receiver)
-    if n == 1:  # one game: the same operations on Python floats
-        return _sample_serve_one(u.reshape(4).tolist(), float(FORWARD[receiver[0]]))
-    x0 = SERVE_X[0] + u[:, 0] * (SERVE_X[1] - SERVE_X[0])
-    z0 = SERVE_Z[0] + u[:, 1] * (SERVE_Z[1] - SERVE_Z[0])
-    t = (x0 - SERVE_X[0]) / (SERVE_X[1] - SERVE_X[0])
-    phi_lo = SERVE_ELEVATION_NEAR[0] + t * (SERVE_ELEVATION_FAR[0] - SERVE_ELEVATION_NEAR[0])
-    phi = phi_lo + u[:, 2] * (SERVE_ELEVATION_NEAR[1] - phi_lo)
-    s_lo = SERVE_SPEED_NEAR[0] + t * (SERVE_SPEED_FAR[0] - SERVE_SPEED_NEAR[0])
-    s_hi = SERVE_SPEED_NEAR[1] + t * (SERVE_SPEED_FAR[1] - SERVE_SPEED_NEAR[1])
-    s = s_lo + u[:, 3] * (s_hi - s_lo)
-    f = FORWARD[receiver]
-    pos = np.stack([f * x0, np.zeros(n), z0], axis=1)
-    vel = SERVE_SPEED_SCALE * s[:, None] * np.stack([-f * np.cos(phi), np.zeros(n), np.sin(phi)], 1)
+    pos, vel = np.zeros((n, 3)), np.zeros((n, 3))
+    _compiled_serve()(np.ascontiguousarray(u, np.float64).reshape(n, SERVE_DRAWS),
+                      FORWARD[np.asarray(receiver, np.int64)], pos, vel)
     return pos, vel
 
 
-def _sample_serve_one(u: list[float], f: float) -> tuple[np.ndarray, np.ndarray]:
-    """``sample_serve`` of one game (uniforms ``u``, receiver's ``FORWARD`` ``f``) on Python
-    floats: (1, 3) arrays."""
-    x0 = SERVE_X[0] + u[0] * (SERVE_X[1] - SERVE_X[0])
-    z0 = SERVE_Z[0] + u[1] * (SERVE_Z[1] - SERVE_Z[0])
-    t = (x0 - SERVE_X[0]) / (SERVE_X[1] - SERVE_X[0])
-    (near_lo, near_hi), (far_lo, _) = map(float, SERVE_ELEVATION_NEAR), SERVE_ELEVATION_FAR
-    phi_lo = near_lo + t * (float(far_lo) - near_lo)
-    phi = phi_lo + u[2] * (near_hi - phi_lo)
-    s_lo = SERVE_SPEED_NEAR[0] + t * (SERVE_SPEED_FAR[0] - SERVE_SPEED_NEAR[0])
-    s_hi = SERVE_SPEED_NEAR[1] + t * (SERVE_SPEED_FAR[1] - SERVE_SPEED_NEAR[1])
-    speed = SERVE_SPEED_SCALE * (s_lo + u[3] * (s_hi - s_lo))
-    return (np.array([[f * x0, 0.0, z0]]),
-            np.array([[speed * (-f * float(np.cos(phi))), speed * 0.0,
-                       speed * float(np.sin(phi))]]))
+def _serve(u, forward, pos, vel):  # compiled by Numba
+    x_lo, x_span = SERVE_X[0], SERVE_X[1] - SERVE_X[0]
+    z_lo, z_span = SERVE_Z[0], SERVE_Z[1] - SERVE_Z[0]
+    near_lo, near_hi, far_lo = SERVE_ELEVATION_NEAR[0], SERVE_ELEVATION_NEAR[1], \
+        SERVE_ELEVATION_FAR[0]
+    for i in range(u.shape[0]):
+        x0 = x_lo + u[i, 0] * x_span
+        z0 = z_lo + u[i, 1] * z_span
+        t = (x0 - x_lo) / x_span
+        phi_lo = near_lo + t * (far_lo - near_lo)
+        phi = phi_lo + u[i, 2] * (near_hi - phi_lo)
+        s_lo = SERVE_SPEED_NEAR[0] + t * (SERVE_SPEED_FAR[0] - SERVE_SPEED_NEAR[0])
+        s_hi = SERVE_SPEED_NEAR[1] + t * (SERVE_SPEED_FAR[1] - SERVE_SPEED_NEAR[1])
+        speed = SERVE_SPEED_SCALE * (s_lo + u[i, 3] * (s_hi - s_lo))
+        f = forward[i]
+        pos[i, 0], pos[i, 2] = f * x0, z0
+        vel[i, 0], vel[i, 1], vel[i, 2] = speed * (-f * np.cos(phi)), speed * 0.0, \
+            speed * np.sin(phi)
+
+
+@functools.cache
+def _compiled_serve() -> Any:
+    return native.jit(_serve, error_model="numpy")
 
 
 def net_box(court: Court, radius: float) -> tuple[np.ndarray, np.ndarray]:

@@ -83,9 +83,7 @@ class ShuttleModel:
 
     def advance(self, s: ShuttleState, dt: float) -> None:
         """Advance the shuttles of ``s`` by ``dt`` seconds, in place (``fly``)."""
-        record = np.zeros(1, FLIGHT_DTYPE)
-        for name, value in self.numbers(dt).items():
-            record[name] = value
+        record = _flight_record(tuple(self.numbers(dt).items()))
         _compiled_advance()(s.motion, s.shot_time, s.shot_speed, record)
 
     def terminal_speed(self) -> float:
@@ -225,6 +223,16 @@ def _advance_with(njit: Callable) -> Callable:
             fly_one(m, shot_time, shot_speed, k, e, count)
 
     return advance
+
+
+@functools.cache
+def _flight_record(numbers: tuple) -> np.ndarray:
+    """The compiled flight's record of ``numbers`` ((name, value) pairs), made once: planners
+    advance their predictions a step at a time."""
+    record = np.zeros(1, FLIGHT_DTYPE)
+    for name, value in numbers:
+        record[name] = value
+    return record
 
 
 @functools.cache
