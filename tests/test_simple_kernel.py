@@ -18,6 +18,8 @@ from rallysim.core.kernels import simple
 from rallysim.core.kernels.humanlike import HumanLikeKernel
 from rallysim.core.kernels.simple import SimpleKernel
 from rallysim.core.shuttle import RADIUS
+from rallysim.core.simple_obs import POSITION_CENTRE, POSITION_SCALE, player_observations
+from rallysim.core.tasks.simple_return import OBS_CENTRE, OBS_SCALE
 from rallysim.envs.simple_return_v0 import SimpleReturnEnv, SimpleReturnVectorEnv
 from tests.kernels import play, same_bits
 
@@ -173,14 +175,27 @@ def test_a_copy_mid_episode_keeps_replaying():
         assert same_bits(one[0], two[0]) and one[1] == two[1]
 
 
-def test_the_compiled_observation_is_the_lanes_codes():
+def _numpy_observation(game, goal):
+    """The low-level observation restated in NumPy from docs/reference.md §6: the oracle of the
+    compiled one."""
+    b, m = game.bodies, game.shuttle.motion
+    theta, omega, f = b.theta[:, 0], b.omega[:, 0], b.forward[:, 0]
+    fo, zero = b.face_offset, np.zeros_like(theta)
+    raw = np.stack([b.base_x[:, 0], zero, np.full_like(theta, b.base_z),
+                    np.cos(0.5 * theta), zero, np.sin(0.5 * theta), zero,
+                    fo * omega * np.cos(theta), zero, -fo * omega * np.sin(theta),
+                    f * m[0], f * m[1], m[2], f * m[3], f * m[4], m[5], goal], axis=1)
+    return np.clip((raw - OBS_CENTRE) / OBS_SCALE, -1.0, 1.0).astype(np.float32)
+
+
+def test_the_compiled_observation_is_numpys():
     """States well outside the observation's ranges, signed zeros and non-finite numbers: the
-    compiled observation gives the lanes code's bits (clipped as np.clip clips, NaN kept)."""
+    compiled observation gives NumPy's bits of the same formula (clipped as np.clip clips, NaN
+    kept)."""
     env = SimpleReturnVectorEnv(3)
     env.reset(seed=0)
     task, game = env.task, env.task.game
     b, sh = game.bodies, game.shuttle
-    compiled = game.observation
     rng = np.random.default_rng(0)
     special = [0.0, -0.0, np.nan, np.inf, -np.inf, 1e300, -1.0, 1.0]
     clipped = {"low": 0, "high": 0, "nan": 0}
@@ -192,16 +207,33 @@ def test_the_compiled_observation_is_the_lanes_codes():
         b.theta[:, 0], b.omega[:, 0], b.base_x[:, 0] = values[:, :3].T
         sh.motion[:, :] = 10.0 * values[:, 3:9].T
         task.goal[:] = values[:, 9]
-        game.observation = lambda *args: None  # the lanes code's observation
-        with np.errstate(invalid="ignore"):  # NumPy's sine of inf warns; it is NaN
-            expected = task.observe()
-        game.observation = compiled
+        with np.errstate(invalid="ignore", over="ignore"):  # inf * 0 and the like: NaN
+            expected = _numpy_observation(game, task.goal)
         got = task.observe()
         assert same_bits(got, expected), values
         clipped["low"] += int((got == -1.0).sum())
         clipped["high"] += int((got == 1.0).sum())
         clipped["nan"] += int(np.isnan(got).sum())
     assert min(clipped.values()) > 100, clipped
+
+
+def test_the_rally_and_the_task_share_the_observation():
+    """A two-player game's observations are each player's own-frame view, by the same code as
+    the low-level task's: player 1 sees the shuttle's x and y turned."""
+    g = Game(2, 2, seed=3)
+    g.reset(np.arange(2))
+    g.step(np.full((2, 2, 3), 0.3), np.ones(2, bool))
+    obs = player_observations(g)
+    assert obs.shape == (2, 2, 16) and obs.dtype == np.float32
+    m = g.shuttle.motion
+    pos = (m[:3].T - POSITION_CENTRE) / POSITION_SCALE
+    turned = (m[:3].T * [-1.0, -1.0, 1.0] - POSITION_CENTRE) / POSITION_SCALE
+    assert same_bits(obs[:, 0, 10:13], np.clip(pos, -1, 1).astype(np.float32))
+    assert same_bits(obs[:, 1, 10:13], np.clip(turned, -1, 1).astype(np.float32))
+    assert same_bits(obs[:, :, 0], np.clip((g.bodies.base_x - 0.0) / 10.0, -1, 1
+                                           ).astype(np.float32))
+    with pytest.raises(TypeError, match="SIMPLE players"):
+        player_observations(Game(1, 1, bodies=HumanLikeBodies(1, 1)))
 
 
 def test_one_compiled_signature_serves_every_game():

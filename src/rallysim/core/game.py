@@ -104,21 +104,10 @@ class Game:
         s = PHYSICS_STEPS_PER_DECISION
         self.trace = GameTrace(gap=np.zeros((s + 1, n, p)), moved=np.zeros((s, n, p), bool),
                                live=np.zeros((s, n), bool), has_hit=np.zeros((s, n, p), bool))
-        # the tasks' and observations' lanes (rallysim.core.lanes): Python numbers for one
+        # the tasks' lanes (rallysim.core.lanes): Python numbers for one
         # game of one player
         self.ops: Ops = SCALARS if (n, p) == (1, 1) else ARRAYS
-        self._vectors: dict[str, np.ndarray] | None = None
         self._kernel: GameKernel = kernel(self)
-
-    def observation(self, extra: np.ndarray, centre: np.ndarray, scale: np.ndarray
-                    ) -> np.ndarray | None:
-        """One-player SIMPLE games' observations (``simple_obs.raw_observation_lanes``)
-        followed by ``extra`` (N,), mapped by ``centre`` and ``scale`` and clipped into
-        [-1, 1], float32 (N, 17), compiled; else None (``ops.observations`` of the lanes
-        gives them)."""
-        if not isinstance(self._kernel, SimpleKernel) or self.n_players != 1:
-            return None
-        return self._kernel.observation(self, extra, centre, scale)
 
     # -- the rally's state (RallyState), as the game's own arrays --------------------------------
     @property
@@ -239,17 +228,6 @@ class Game:
 
     def _physics_step(self) -> None:
         self._run(1)
-
-    def vector_views(self) -> dict[str, np.ndarray]:
-        """The shuttle's position and velocity as vector lanes (``rallysim.core.lanes``):
-        (3, N, 1) views (made once)."""
-        if self._vectors is None:
-            pos, vel = self.shuttle.vectors()
-            self._vectors = {"pos": pos, "vel": vel}
-        return self._vectors
-
-    def __getstate__(self) -> dict[str, Any]:
-        return {**self.__dict__, "_vectors": None}
 
 
 def _kernel_kind(bodies: Any) -> type[GameKernel]:

@@ -1,12 +1,12 @@
-"""Two backends for the task and observation code that runs every decision, written once over
+"""Two backends for the task code that runs every decision, written once over
 *lanes*.
 
 A lane is one quantity of the batch: a NumPy array over the N games (``ARRAYS``; shape (N, 1)
 per game, (N, P) per player), or, for a batch of one game of one player, a Python number
 (``SCALARS``). Each NumPy call has a fixed cost whatever the array's size, which at N = 1 is
 nearly all of a decision's task code; Python floats do the same IEEE-754 double operations
-without it. Both backends run the same expressions, so they give bit-identical results; sin,
-cos and exp call NumPy's in both.
+without it. Both backends run the same expressions, so they give bit-identical results; exp
+calls NumPy's in both.
 
 ``ops.where`` chooses (both branches are evaluated, so both must be safe everywhere);
 ``if ops.any(mask):`` skips work no lane needs. (The physics steps are compiled:
@@ -27,8 +27,6 @@ class ArrayOps:
     scalar = False
     where = staticmethod(np.where)
     logical_not = staticmethod(np.logical_not)
-    sin = staticmethod(np.sin)
-    cos = staticmethod(np.cos)
     exp = staticmethod(np.exp)
 
     @staticmethod
@@ -41,11 +39,6 @@ class ArrayOps:
     @staticmethod
     def read(a: np.ndarray) -> np.ndarray:
         """An array as a lane: itself (one game's: its one number)."""
-        return a
-
-    @staticmethod
-    def vector(a: np.ndarray) -> np.ndarray:
-        """A vector's (3, N, 1) array as its lane: itself."""
         return a
 
     @staticmethod
@@ -69,43 +62,9 @@ class ArrayOps:
         a += 1
         return a
 
-    @staticmethod
-    def scaled(lanes: list, shape: tuple[int, ...], centre: Any, scale: Any) -> np.ndarray:
-        """Lanes (each broadcastable to ``shape``; a constant may be the number 0.0) as the
-        columns of a ``(*shape, k)`` array, each mapped by (lane - centre) / scale (``centre``
-        and ``scale``: k numbers, best a float64 array: a tuple is converted at every call)."""
-        out = np.zeros((*shape, len(lanes)))
-        for k, lane in enumerate(lanes):
-            if isinstance(lane, np.ndarray) or lane != 0.0:
-                out[..., k] = lane
-        out -= centre
-        out /= scale
-        return out
-
-    @staticmethod
-    def observations(lanes: list, shape: tuple[int, ...], centre: Any, scale: Any
-                     ) -> np.ndarray:
-        """``scaled``, clipped into [-1, 1] (np.clip's result), as float32."""
-        return _clipped32(ArrayOps.scaled(lanes, shape, centre, scale))
-
-
-def _clipped32(out: np.ndarray) -> np.ndarray:
-    """``out`` clipped into [-1, 1] in place (np.clip's result), as float32."""
-    np.maximum(out, -1.0, out=out)
-    np.minimum(out, 1.0, out=out)
-    return out.astype(np.float32)
-
 
 def _where(c: bool, a: Any, b: Any) -> Any:
     return a if c else b
-
-
-def _sin(x: float) -> float:
-    return float(np.sin(x))
-
-
-def _cos(x: float) -> float:
-    return float(np.cos(x))
 
 
 def _exp(x: float) -> float:
@@ -114,10 +73,6 @@ def _exp(x: float) -> float:
 
 def _read(a: np.ndarray) -> Any:
     return a.item()
-
-
-def _vector(a: np.ndarray) -> list:
-    return a.ravel().tolist()
 
 
 def _columns(a: np.ndarray) -> list:
@@ -135,37 +90,19 @@ def _tick(a: np.ndarray) -> int:
     return count
 
 
-def _scaled(lanes: list, shape: tuple[int, ...], centre: Any, scale: Any) -> np.ndarray:
-    # the numbers as one array: each element's (x - c) / s, as on floats, in four NumPy calls
-    out = np.array(lanes, dtype=np.float64)
-    out -= centre
-    out /= scale
-    return out.reshape(*shape, len(lanes))
-
-
-def _observations(lanes: list, shape: tuple[int, ...], centre: Any, scale: Any
-                  ) -> np.ndarray:
-    return _clipped32(_scaled(lanes, shape, centre, scale))
-
-
 class ScalarOps:
     """Python numbers for one game of one player (the docstrings are ``ArrayOps``')."""
 
     scalar = True
     where = staticmethod(_where)
     logical_not = staticmethod(operator.not_)
-    sin = staticmethod(_sin)
-    cos = staticmethod(_cos)
     exp = staticmethod(_exp)
     any = staticmethod(bool)
     read = staticmethod(_read)
     read0 = staticmethod(_read)
-    vector = staticmethod(_vector)
     columns = staticmethod(_columns)
     put = staticmethod(_put)
     tick = staticmethod(_tick)
-    scaled = staticmethod(_scaled)
-    observations = staticmethod(_observations)
 
 
 Ops = type[ArrayOps] | type[ScalarOps]

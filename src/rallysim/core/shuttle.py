@@ -27,9 +27,9 @@ class ShuttleState:
     """Batched shuttle state. ``shot_speed``/``shot_time`` serve the paper's Algorithm 1.
 
     Position and velocity (copied in) are stored component-major in ``motion`` (6, N): rows x,
-    y, z, vx, vy, vz, so that the rule code's lanes (``rallysim.core.lanes``) are contiguous
-    rows (NumPy takes a slower, general path on the columns of an (N, 3) array). ``pos`` and
-    ``vel`` are (N, 3) views of it."""
+    y, z, vx, vy, vz, each a contiguous row for the compiled steps and the tasks (NumPy takes a
+    slower, general path on the columns of an (N, 3) array). ``pos`` and ``vel`` are (N, 3)
+    views of it."""
 
     def __init__(self, pos: np.ndarray, vel: np.ndarray, shot_speed: np.ndarray,
                  shot_time: np.ndarray) -> None:
@@ -59,11 +59,6 @@ class ShuttleState:
         # np.linalg.norm(v, axis=1)'s own operations, without its checks (this runs per serve)
         self.shot_speed[mask] = np.sqrt(np.add.reduce(v * v, axis=1))
         self.shot_time[mask] = 0.0
-
-    def vectors(self) -> tuple[np.ndarray, np.ndarray]:
-        """The position and velocity as vector lanes (``rallysim.core.lanes``): (3, N, 1) views
-        of ``motion``."""
-        return self.motion[:3, :, None], self.motion[3:, :, None]
 
 
 class ShuttleModel:

@@ -19,7 +19,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from rallysim.core.bodies import SimpleBodies
 from rallysim.core.game import Game
+from rallysim.core.kernels import simple as kernels
 from rallysim.core.layout import Layout
 
 POSITION_CENTRE = np.array([0.0, 0.0, 6.0])
@@ -52,26 +54,21 @@ PLAYER_OBS_CENTRE.flags.writeable = PLAYER_OBS_SCALE.flags.writeable = False
 
 
 def player_observations(game: Game) -> np.ndarray:
-    """(N, P, 16) float64 observations of every player, own frame, scaled (not yet clipped)."""
-    return game.ops.scaled(raw_observation_lanes(game), (game.n_envs, game.n_players),
-                           PLAYER_OBS_CENTRE, PLAYER_OBS_SCALE)
+    """(N, P, 16) float32 observations of every player, own frame, scaled and clipped into
+    [-1, 1] (compiled: ``rallysim.core.kernels.simple``)."""
+    return observations(game, np.zeros((game.n_envs, game.n_players, 0)), PLAYER_OBS_CENTRE,
+                        PLAYER_OBS_SCALE)
 
 
-def raw_observation_lanes(game: Game) -> list:
-    """The 16 observed values of every player before their affine maps (``PLAYER_OBS_CENTRE``,
-    ``PLAYER_OBS_SCALE``), as lanes of ``game.ops`` (rallysim.core.lanes): one Python number
-    each for one game of one player, else arrays broadcastable to (N, P)."""
-    b, ops, vectors = game.bodies, game.ops, game.vector_views()
-    read = ops.read
-    theta, omega, fwd = read(b.theta), read(b.omega), read(b.forward)
-    (px, py, pz), (vx, vy, vz) = ops.vector(vectors["pos"]), ops.vector(vectors["vel"])
-    s, c = ops.sin(theta), ops.cos(theta)
-    half = 0.5 * theta
-    return [read(b.base_x), 0.0, b.base_z,
-            ops.cos(half), 0.0, ops.sin(half), 0.0,  # the arm's quaternion (a turn about y)
-            b.face_offset * omega * c, 0.0, -b.face_offset * omega * s,  # face centre velocity
-            # the shuttle: the own frame turns x and y (fwd = -1 for player 1), not z
-            fwd * px, fwd * py, pz, fwd * vx, fwd * vy, vz]
+def observations(game: Game, extra: np.ndarray, centre: np.ndarray, scale: np.ndarray
+                 ) -> np.ndarray:
+    """(N, P, 16 + X) float32: every player's 16 values followed by ``extra`` (N, P, X) float64,
+    each mapped by (value - centre) / scale and clipped into [-1, 1] (NaN stays NaN). The one
+    implementation of the SIMPLE observation, for the low-level task and the rally."""
+    if not isinstance(game.bodies, SimpleBodies):
+        raise TypeError(f"the SIMPLE observation needs SIMPLE players, not "
+                        f"{type(game.bodies).__name__}")
+    return kernels.observations(game, extra, centre, scale)
 
 
 def opponent_positions(game: Game) -> np.ndarray:

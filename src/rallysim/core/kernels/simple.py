@@ -82,41 +82,44 @@ def pieces_with(njit: Callable, mj_step: Callable, sin: Callable, cos: Callable)
     return step.Pieces(move, face_point, racket, shot)
 
 
-def _observation_with(njit: Callable, sin: Callable, cos: Callable) -> Callable:
-    """Player 0's scaled observation in each of N games, compiled: the 16 values of
-    ``simple_obs.raw_observation_lanes``, then ``extra[e]``, each mapped by
-    ``ArrayOps.observations`` ((x - centre) / scale, clipped into [-1, 1] as ``np.clip`` clips:
-    NaN stays NaN), as float32 (N, 17)."""
+def _observations_with(njit: Callable, sin: Callable, cos: Callable) -> Callable:
+    """Every player's observation in each of N games, compiled: the 16 values of
+    ``simple_obs.PLAYER_OBS`` in the player's own frame, then ``extra[e, j]``, each mapped by
+    (x - centre) / scale and clipped into [-1, 1] as ``np.clip`` clips (NaN stays NaN),
+    written into ``out`` (N, P, 16 + X)."""
 
     # (NumPy's error model: a zero scale gives inf or NaN, as the arrays do)
     @njit(error_model="numpy")
-    def observation(theta_a, omega_a, base_x, fwd, m, extra, base_z, fo, centre, scale):
-        n = theta_a.shape[0]
-        size = 17
-        if centre.size != size or scale.size != size:
+    def observations(theta_a, omega_a, base_x, fwd, m, extra, base_z, fo, centre, scale, out):
+        n, p = theta_a.shape
+        n_extra = extra.shape[2]
+        size = 16 + n_extra
+        if out.shape[2] != size or centre.size != size or scale.size != size:
             raise ValueError("the observation's maps must have one entry per value")
         raw = np.empty(size)
-        out = np.empty((n, size), np.float32)
         for e in range(n):
-            theta, omega, f = theta_a[e, 0], omega_a[e, 0], fwd[e, 0]
-            s, c = sin(theta), cos(theta)
-            half = 0.5 * theta
-            raw[0], raw[1], raw[2] = base_x[e, 0], 0.0, base_z
-            raw[3], raw[4], raw[5], raw[6] = cos(half), 0.0, sin(half), 0.0
-            raw[7], raw[8], raw[9] = fo * omega * c, 0.0, -fo * omega * s
-            raw[10], raw[11], raw[12] = f * m[0, e], f * m[1, e], m[2, e]
-            raw[13], raw[14], raw[15] = f * m[3, e], f * m[4, e], m[5, e]
-            raw[16] = extra[e]
-            for i in range(size):
-                x = (raw[i] - centre[i]) / scale[i]
-                if x < -1.0:
-                    x = -1.0
-                if x > 1.0:
-                    x = 1.0
-                out[e, i] = x
+            for j in range(p):
+                theta, omega, f = theta_a[e, j], omega_a[e, j], fwd[e, j]
+                s, c = sin(theta), cos(theta)
+                half = 0.5 * theta
+                raw[0], raw[1], raw[2] = base_x[e, j], 0.0, base_z
+                raw[3], raw[4], raw[5], raw[6] = cos(half), 0.0, sin(half), 0.0  # about y
+                raw[7], raw[8], raw[9] = fo * omega * c, 0.0, -fo * omega * s  # face velocity
+                # the shuttle: the own frame turns x and y (f = -1 for player 1), not z
+                raw[10], raw[11], raw[12] = f * m[0, e], f * m[1, e], m[2, e]
+                raw[13], raw[14], raw[15] = f * m[3, e], f * m[4, e], m[5, e]
+                for i in range(n_extra):
+                    raw[16 + i] = extra[e, j, i]
+                for i in range(size):
+                    x = (raw[i] - centre[i]) / scale[i]
+                    if x < -1.0:
+                        x = -1.0
+                    if x > 1.0:
+                        x = 1.0
+                    out[e, j, i] = x
         return out
 
-    return observation
+    return observations
 
 
 def _compile() -> tuple[step.Compiled, Callable]:
@@ -128,8 +131,8 @@ def _compile() -> tuple[step.Compiled, Callable]:
     from rallysim.core.kernels import state  # (imports Numba)
 
     compiled = step.compile_kind(pieces_with(numba.njit, mj_step, sin, cos), state.simple)
-    observation = _observation_with(numba.njit, sin, cos)
-    return compiled, native.jit(observation.py_func, error_model="numpy")
+    observations = _observations_with(numba.njit, sin, cos)
+    return compiled, native.jit(observations.py_func, error_model="numpy")
 
 
 # this process's compiled functions, made on first use
@@ -156,12 +159,13 @@ class SimpleKernel(step.GameKernel):
                     drive=b.inertia / b.dt, limit=float(b.limit),
                     face_offset=float(b.face_offset), pivot_z=float(b.pivot_z))
 
-    def observation(self, game: Any, extra: np.ndarray, centre: np.ndarray,
-                    scale: np.ndarray) -> np.ndarray:
-        """Player 0's observations followed by ``extra`` (N,), scaled and clipped
-        (``_observation_with``)."""
-        b = game.bodies
-        # (only the arrays it reads: each array passed costs the call some time)
-        return Compiled.get()[1](
-            b.theta, b.omega, b.base_x, b.forward, game.shuttle.motion, extra, b.base_z,
-            b.face_offset, centre, scale)
+
+def observations(game: Any, extra: np.ndarray, centre: np.ndarray, scale: np.ndarray
+                 ) -> np.ndarray:
+    """Every SIMPLE player's observation followed by ``extra`` (N, P, X), scaled, clipped,
+    float32 (N, P, 16 + X) (``_observations_with``)."""
+    b = game.bodies
+    out = np.empty((*b.theta.shape, 16 + extra.shape[2]), np.float32)
+    # (only the arrays it reads: each array passed costs the call some time)
+    return Compiled.get()[1](b.theta, b.omega, b.base_x, b.forward, game.shuttle.motion, extra,
+                             b.base_z, b.face_offset, centre, scale, out)

@@ -17,7 +17,7 @@ from rallysim.core.simple_obs import (
     PLAYER_OBS_SCALE,
     PLAYER_OBS_SIZE,
     TARGET_DEPTH_RANGE,
-    raw_observation_lanes,
+    observations,
 )
 from rallysim.core.validation import positive_int, read_options, real_array
 
@@ -120,12 +120,8 @@ class ReturnTask:
                                       "arm_angle": ((k,), (-b.limit, b.limit))})
 
     def observe(self) -> np.ndarray:
-        game = self.game
-        compiled = game.observation(self.goal, OBS_CENTRE, OBS_SCALE)
-        if compiled is not None:
-            return compiled
-        lanes = [*raw_observation_lanes(game), game.ops.read(self.goal[:, None])]
-        return game.ops.observations(lanes, (self.n, 1), OBS_CENTRE, OBS_SCALE)[:, 0]
+        extra = self.goal.reshape(self.n, 1, 1)
+        return observations(self.game, extra, OBS_CENTRE, OBS_SCALE)[:, 0]
 
     def step(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
         """Advance all N games by one decision with validated, clipped ``actions`` (N, 3):
