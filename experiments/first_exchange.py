@@ -9,6 +9,9 @@ at 50 hits) and the study reports:
   controller's reach model) finds a full-speed meeting with the incoming shuttle from where
   the player stood, and from the best of ``BASES`` (eight base positions across the court);
   the same for the rallies that went on past that turn;
+- whether the player who made the lost shot had another: at the start of its turn, a
+  full-speed meeting (``ShotPlanner``) whose shot, at that meeting's elevation, the next player
+  could meet from one of ``BASES`` (the planner's model: full-speed swings only);
 - where the waiting player stands when its turn begins (the turn player's base x at the start
   of turns 1-11, median, own frame).
 
@@ -74,6 +77,34 @@ def meetable(planner: ShotPlanner, state: PlayerState, base: float | None) -> np
     return planner.meetings(state).feasible.any(axis=1)
 
 
+def meetable_from_any_base(planner: ShotPlanner, pos: np.ndarray, vel: np.ndarray
+                           ) -> np.ndarray:
+    """Whether shuttles at ``pos`` with ``vel`` (N, 3; the receiver's own frame) can be met at
+    full speed from one of ``BASES``."""
+    n = len(pos)
+    out = np.zeros(n, bool)
+    for base in BASES:
+        state = PlayerState(base_x=np.full(n, base), theta=np.zeros(n), pos=pos, vel=vel)
+        out |= planner.meetings(state).feasible.any(axis=1)
+    return out
+
+
+def another_shot(planner: ShotPlanner, state: PlayerState) -> np.ndarray:
+    """Whether each hitter of ``state`` (at the start of its turn) has a full-speed meeting
+    whose shot lands beyond the net and can be met by the next player from some base."""
+    m = planner.meetings(state)
+    n = len(state.base_x)
+    found = np.zeros(n, bool)
+    for e, elevation in enumerate(planner.elev):
+        # the shot in the next player's own frame: x turned, leaving toward it
+        pos = np.stack([-m.x_hit[:, e], np.zeros(n), np.full(n, planner.hit_z[e])], axis=1)
+        speed = planner.speed * np.array([-np.cos(elevation), 0.0, np.sin(elevation)])
+        vel = np.broadcast_to(speed, (n, 3))
+        usable = m.feasible[:, e] & (m.depth[:, e] > 0.0)
+        found |= usable & meetable_from_any_base(planner, pos, vel)
+    return found
+
+
 def profile(played: dict[str, Any]) -> dict[str, Any]:
     """The loss shares, the meetable shares of the lost turn and the waiting position."""
     lengths, planner = played["lengths"], ShotPlanner()
@@ -89,10 +120,13 @@ def profile(played: dict[str, Any]) -> dict[str, Any]:
     best = np.zeros(len(lengths), bool)
     for base in BASES:
         best |= meetable(planner, state, base)
+    other = another_shot(planner, played["states"][lost_at - 1])
     out["lost_turn"] = {
         "hits": lost_at, "rallies_lost": int(lost.sum()),
         "meetable_from_own_base": {"lost": _mean(here[lost]), "went_on": _mean(here[kept])},
-        "meetable_from_best_base": {"lost": _mean(best[lost]), "went_on": _mean(best[kept])}}
+        "meetable_from_best_base": {"lost": _mean(best[lost]), "went_on": _mean(best[kept])},
+        "hitter_had_a_meetable_shot": {"lost": _mean(other[lost]),
+                                       "went_on": _mean(other[kept])}}
     out["waiting_base_x_median"] = float(np.median(played["waiting"]))
     return out
 
@@ -116,16 +150,20 @@ def seed_profile(runs: Path | None, seed: int, rallies: int, goal: float) -> dic
 
 def table(profiles: dict[int, dict[str, Any]]) -> list[str]:
     lines = ["| seed | HRL mean | lost at 0-1 hits | at 2 hits | at 3-49 hits | reaching 50 "
-             "| lost turn: meetable from own base / best base | waiting player, median base x |",
-             "|---|---|---|---|---|---|---|---|"]
+             "| lost turn: meetable from own base / best base | hitter had a meetable shot "
+             "| waiting player, median base x |",
+             "|---|---|---|---|---|---|---|---|---|"]
     for seed, p in profiles.items():
         t = p["lost_turn"]
         own, best = t["meetable_from_own_base"]["lost"], t["meetable_from_best_base"]["lost"]
         meet = "—" if own is None else f"{100 * own:.0f} % / {100 * best:.0f} %"
+        other = t["hitter_had_a_meetable_shot"]["lost"]
+        other_cell = "—" if other is None else f"{100 * other:.0f} %"
         lines.append(f"| {'scripted' if seed < 0 else seed} | {p['mean']:.2f} "
                      + "".join(f"| {100 * p[k]:.1f} % " for k in
                                ("lost_0_1", "lost_2", "lost_3_49", "capped"))
-                     + f"| {meet} (hit {t['hits']}) | {p['waiting_base_x_median']:.2f} m |")
+                     + f"| {meet} (hit {t['hits']}) | {other_cell} "
+                     + f"| {p['waiting_base_x_median']:.2f} m |")
     return lines
 
 
