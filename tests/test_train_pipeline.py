@@ -141,8 +141,25 @@ def test_humanlike_low_level_trains_and_reports_its_errors(tmp_path):
     assert policy(np.zeros((2, 85), np.float32)).shape == (2, 15)
     assert json.loads((tmp_path / "policy.json").read_text())["env_id"] == (
         "RallySim/HumanLikeReturn-v0")
-    with pytest.raises(ValueError, match="no monolithic"):
-        load_config("mono", None, {"player": "humanlike", "ppo.n_envs": 16})
+
+
+def test_humanlike_monolithic_baseline_trains_on_the_3d_rally(tmp_path):
+    """The Monolithic baseline for HUMAN-LIKE players: one policy acting for both players of
+    the 3-D rally every decision, exported for that rally and evaluated on it."""
+    from rallysim.eval.rally_eval import rally_lengths_direct
+
+    config = load_config("mono", None, {**TINY, "budget": 1024, "player": "humanlike"})
+    assert config.ppo.net_arch == (256, 256)  # the player's packaged settings
+    curve = train_stage(config, tmp_path, progress=False)
+    assert curve["steps"] >= 1024 and 0.0 <= curve["final"]["mean_rally"] <= 50.0
+    doc = json.loads((tmp_path / "policy.json").read_text())
+    assert doc["env_id"] == "rallysim.envs.humanlike_rally_v0:HumanLikeRallyVectorEnv"
+    policy = load_policy(tmp_path / "policy")
+    assert policy(np.zeros((2, 86), np.float32)).shape == (2, 15)
+    lengths = rally_lengths_direct(policy, 4, seed=3, player="humanlike")
+    assert lengths.shape == (4,) and lengths.min() >= 0
+    with pytest.raises(ValueError, match="size 86"):  # a SIMPLE rally is not its game
+        rally_lengths_direct(policy, 2, seed=3)
 
 
 @pytest.mark.slow  # trains

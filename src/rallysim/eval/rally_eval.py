@@ -14,7 +14,7 @@ import numpy as np
 
 from rallysim.core.tasks.rally import RallyConfig, RallyTask
 from rallysim.core.tasks.turns import TurnTask
-from rallysim.players import PlayerSpec
+from rallysim.players import PlayerSpec, get_player
 from rallysim.policies.registry import resolve
 from rallysim.policies.types import HighLevel, LowLevel, Policy
 
@@ -94,9 +94,11 @@ def play_turns(high_level: HighLevel | np.ndarray, low_level: LowLevel | str, n_
 
 
 def rally_lengths_direct(policy: Policy, n_rallies: int, seed: int,
-                         config: RallyConfig | None = None) -> np.ndarray:
-    """Lengths of ``n_rallies`` rallies where ``policy`` acts for both players every decision."""
-    task = RallyTask(n_rallies, config, seed=seed)
+                         config: RallyConfig | None = None,
+                         player: str | PlayerSpec = "simple") -> np.ndarray:
+    """Lengths of ``n_rallies`` rallies of ``player`` (a kind's name or spec) where ``policy``
+    acts for both players every decision."""
+    task = RallyTask(n_rallies, config, seed=seed, spec=get_player(player))
     task.reset(np.arange(n_rallies))
     max_decisions = task.config.max_decisions + 1  # the stall guard ends every rally by then
     lengths = np.full(n_rallies, -1, np.int64)
