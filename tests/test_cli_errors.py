@@ -132,7 +132,7 @@ LEGACY_BAD_SETTINGS = [("n_envs=0", "ppo.n_envs"), ("decisions=abc", "budget"),
 STAGE_SETTINGS = [("mono", "ppo.n_envs=3", "ppo.n_envs"),
                   ("high", "warm_start.teacher=scripted", "warm_start"),
                   ("mono", "warm_start.teacher=scripted", "warm_start"),
-                  ("mono", "player=humanlike", "HUMAN-LIKE")]
+                  ("low", "goal_sweep=8", "goal_sweep")]
 
 # argparse-level errors: (argv, a word the line must hold)
 OPTION_ERRORS: list[tuple[list[str], str]] = [
@@ -180,8 +180,7 @@ OPTION_ERRORS: list[tuple[list[str], str]] = [
     (["train", "mono", "--budget", "-1"], "budget (player-decisions)"),
     (["train", "low", "--shuttle", "x"], "--shuttle"), (["train", "low", "--env", "x"], "--env"),
     (["train", "low", "--player", "x"], "--player"),
-    (["train", "mono", "--env", "humanlike"], "HUMAN-LIKE"),
-    (["train", "mono", "--player", "humanlike"], "HUMAN-LIKE"),
+    (["reproduce", "--player", "humanlike", "--budget", "rl"], "no budget 'rl'"),
     (["play", "--human", "2"], "--human"), (["play", "--mode", "x"], "--mode"),
     ([], "command"), (["bogus"], "bogus"), (["--bogus"], "command"),
     (["--bogus", "demo"], "unrecognized"),
@@ -527,7 +526,7 @@ def test_copies_of_bounds_match_their_source():
 
 def test_every_packaged_config_is_valid():
     for stage in ("low", "high", "mono"):
-        for player in ("simple", "humanlike") if stage != "mono" else ("simple",):
+        for player in ("simple", "humanlike"):
             config = load_config(stage, None, {"player": player})
             assert (config.stage, config.player) == (stage, player)
 

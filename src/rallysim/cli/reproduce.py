@@ -20,6 +20,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                             "teacher anywhere, the low level from scratch on "
                             "SimpleReturn-v1; smoke: a tiny run that checks that the pipeline "
                             "runs, not its numbers")
+    repro.add_argument("--player", choices=("simple", "humanlike"), default="simple",
+                       help="simple: the paper's 2-D players (Table VII); humanlike: the 3-D "
+                            "HUMAN-LIKE players, the same three methods over the clone of "
+                            "AimedSwing (budgets default, quick, smoke: docs/humanlike.md)")
     repro.add_argument("--out", type=out_dir, default="results",
                        help="folder of the runs, the report and its JSON")
     repro.add_argument("--workers", type=positive,
@@ -37,11 +41,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     """Train every stage and baseline on the chosen budget and write the Table VII report."""
     require_train_extra()
-    from rallysim.train.reproduce import BUDGETS, result_names, run_reproduce
+    from rallysim.train.reproduce import budget_named, result_names, run_reproduce
 
+    budget = budget_named(args.budget, args.player)  # (scratch and rl: SIMPLE only)
     for name in result_names(args.cap).values():
         require(Path(args.out) / name, "file")  # written after all the training
-    results = run_reproduce(BUDGETS[args.budget], Path(args.out), workers=args.workers,
-                            seeds=args.seeds, cap=args.cap)
+    results = run_reproduce(budget, Path(args.out), workers=args.workers, seeds=args.seeds,
+                            cap=args.cap)
     print((Path(args.out) / result_names(args.cap)["report"]).read_text())
     return 0 if results else 1

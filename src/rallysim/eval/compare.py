@@ -27,15 +27,16 @@ METHODS = ("HRL", "Random High-level", "Monolithic")
 
 def play_methods(high: HighLevel, low: LowLevel, mono: Policy, rallies: int, seed: int,
                  rules: RallyConfig, beat: Heartbeat | None = None,
-                 label: str = "") -> dict[str, np.ndarray]:
-    """Rally lengths of HRL (``high`` goals for ``low``), Random High-level (goals ~ U[2, 6] m
-    for ``low``) and Monolithic (``mono`` for both players): ``rallies`` rallies each, played
-    from evaluation seed ``seed``. ``beat`` counts one per method played."""
+                 label: str = "", player: str = "simple") -> dict[str, np.ndarray]:
+    """Rally lengths of HRL (``high`` goals for ``low``), Random High-level (uniform random
+    goals for ``low``: SIMPLE depths ~ U[2, 6] m) and Monolithic (``mono`` for both players):
+    ``rallies`` rallies each of ``player``, played from evaluation seed ``seed``. ``beat``
+    counts one per method played."""
     plays = {
-        "HRL": lambda: rally_lengths_turns(high, low, rallies, seed, rules),
-        "Random High-level": lambda: rally_lengths_turns(random_goals(seed), low, rallies, seed,
-                                                         rules),
-        "Monolithic": lambda: rally_lengths_direct(mono, rallies, seed, rules),
+        "HRL": lambda: rally_lengths_turns(high, low, rallies, seed, rules, player=player),
+        "Random High-level": lambda: rally_lengths_turns(random_goals(seed, player), low,
+                                                         rallies, seed, rules, player=player),
+        "Monolithic": lambda: rally_lengths_direct(mono, rallies, seed, rules, player=player),
     }
     lengths = {}
     for method, play in plays.items():

@@ -42,9 +42,10 @@ def _refuse_stalls(truncated: np.ndarray, length: np.ndarray, config: RallyConfi
                            f"the cap of {config.max_hits}; raise RallyConfig.max_decisions")
 
 
-def random_goals(seed: int) -> HighLevel:
-    """The "Random High-level" baseline: goals ~ U[2, 6] m at every turn."""
-    return resolve("random", "high", "simple", seed)
+def random_goals(seed: int, player: str | PlayerSpec = "simple") -> HighLevel:
+    """The "Random High-level" baseline: uniform random goals at every turn (SIMPLE: depths
+    ~ U[2, 6] m; HUMAN-LIKE: each goal axis uniform over its range)."""
+    return resolve("random", "high", player, seed)
 
 
 def rally_lengths_turns(high_level: HighLevel, low_level: LowLevel | str, n_rallies: int,

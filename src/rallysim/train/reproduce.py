@@ -63,17 +63,31 @@ class Budget:
     low_eval_episodes: int = 1000
     warm_start: str = "scripted"  # the low level's start: "scripted" (cloned) or "none"
     goals: str = "uniform"  # the low level's task: SimpleReturn-v0 ("uniform") or -v1
+    player: str = "simple"  # the players: "simple" or "humanlike" (the 3-D rally)
+    low_extra: tuple[tuple[str, Any], ...] = ()  # further settings of the low stage
 
     def overrides(self, stage: str) -> dict[str, Any]:
         """The stage's settings from this budget (the mono stage's follow from the others':
         ``LINKS``)."""
+        low: dict[str, Any] = {"budget": self.low_decisions,
+                               "warm_start.teacher": self.warm_start}
+        if self.player == "simple":
+            low.update({"eval.every": max(self.low_decisions // 8, 1), "goals": self.goals})
+        low.update(dict(self.low_extra))
         per_stage = {
-            "low": {"budget": self.low_decisions, "warm_start.teacher": self.warm_start,
-                    "eval.every": max(self.low_decisions // 8, 1), "goals": self.goals},
+            "low": low,
             "high": {"budget": self.high_turns, "eval.every": max(self.high_turns // 3, 1),
                      "checkpoint_every": max(self.high_turns // 6, 1)},
         }
-        return per_stage.get(stage, {})
+        return {"player": self.player, **per_stage.get(stage, {})}
+
+    def settings(self) -> dict[str, Any]:
+        """The budget as JSON gives it back (a SIMPLE budget without the fields that came
+        with HUMAN-LIKE runs, as earlier runs wrote it)."""
+        out = json.loads(json.dumps(asdict(self)))
+        if self.player == "simple" and not self.low_extra:
+            del out["player"], out["low_extra"]
+        return out
 
 
 BUDGETS = {
@@ -85,7 +99,37 @@ BUDGETS = {
     # no teacher anywhere: PPO from scratch on SimpleReturn-v1's reachable goals
     "rl": Budget("rl", 2_000_000, 45_000, 3, 200, warm_start="none", goals="reachable"),
 }
+# The HUMAN-LIKE reproduction (issue 39): the low level is the clone of AimedSwing with DAgger
+# rounds (configs/low_humanlike.yaml: no PPO after it), the high level trains over it; "quick"
+# clones a quarter of the decisions with two DAgger rounds.
+HUMANLIKE_BUDGETS = {
+    "default": Budget("default", 0, 32_768, 3, 200, 500, player="humanlike"),
+    "quick": Budget("quick", 0, 8_192, 3, 100, 200, player="humanlike",
+                    low_extra=(("warm_start.decisions", 131_072), ("warm_start.dagger", 2))),
+    "smoke": Budget("smoke", 0, 256, 2, 8, 16, player="humanlike",
+                    low_extra=(("warm_start.decisions", 8_192), ("warm_start.dagger", 1),
+                               ("warm_start.epochs", 2), ("warm_start.batch_size", 256))),
+}
+# the target of every seed's HRL mean at the paper's cap (issues 36 and 39)
+SEED_TARGETS = {"simple": 40, "humanlike": 45}
+# the low level's numbers a report averages over seeds, per player
+LOW_SUMMARY = {"simple": ("mean_reward", "hit_rate", "median_error"),
+               "humanlike": ("mean_reward", "hit_rate", "mean_angle_error",
+                             "mean_abs_speed_error")}
+
+
+def budget_named(name: str, player: str = "simple") -> Budget:
+    """The budget called ``name`` for ``player``'s reproduction; a clear error otherwise."""
+    table = BUDGETS if player == "simple" else HUMANLIKE_BUDGETS if player == "humanlike" \
+        else None
+    if table is None:
+        raise ValueError(f"unknown player {player!r}; valid: 'simple', 'humanlike'")
+    if name not in table:
+        raise ValueError(f"the {player} reproduction has no budget {name!r}; valid: "
+                         + ", ".join(repr(k) for k in table))
+    return table[name]
 METHOD_STAGES = ("low", "high", "mono")  # Table VII's stages (not compete)
+PLAYER_LABELS = {"simple": "SIMPLE", "humanlike": "HUMAN-LIKE"}
 
 
 def _say(queue: Any, text: str) -> None:
@@ -149,7 +193,11 @@ def train_seed_stage(seed: int, stage: str, budget: Budget, out: Path,
         _say(queue, f"[seed {seed}] {stage}: already trained, skipped")
         return done
     t = time.perf_counter()
-    _say(queue, f"[seed {seed}] {stage}: training {config.budget:,} {config.budget_unit} ...")
+    what = f"training {config.budget:,} {config.budget_unit}"
+    if config.budget == 0 and config.warm_start.enabled:  # the clone is the policy
+        what = (f"cloning the scripted player ({config.warm_start.decisions:,} decisions, "
+                f"{config.warm_start.dagger} DAgger rounds; no PPO after it)")
+    _say(queue, f"[seed {seed}] {stage}: {what} ...")
     curve = train_stage(config, run, progress=False, say=lambda text: _say(queue, text))
     _say(queue, f"[seed {seed}] {stage}: done in {time.perf_counter() - t:.0f} s, "
                 + headline(config, curve["final"]))
@@ -157,28 +205,40 @@ def train_seed_stage(seed: int, stage: str, budget: Budget, out: Path,
 
 
 def evaluate_seed(seed: int, out: Path, rallies: int, low_episodes: int,
-                  cap: int = PAPER_CAP, beat: Heartbeat | None = None) -> dict[str, Any]:
+                  cap: int = PAPER_CAP, beat: Heartbeat | None = None,
+                  player: str = "simple") -> dict[str, Any]:
     """Rally lengths of every method (rallies end at ``cap`` hits), and the low level's
-    numbers, for one trained seed."""
+    numbers, for one trained seed of ``player``."""
     from rallysim.eval.compare import play_methods
-    from rallysim.eval.low_eval import goal_scores, play_returns, summarise_returns
     from rallysim.eval.rally_eval import rules_for_cap
     from rallysim.policies.mlp import load_policy
     from rallysim.policies.registry import resolve
 
     runs = out / "runs"
     low_prefix = str(runs / f"low_seed{seed}" / "policy")
-    low = resolve(low_prefix, "rally_low")
-    high = resolve(str(runs / f"high_seed{seed}" / "policy"), "high")
+    low = resolve(low_prefix, "rally_low", player)
+    high = resolve(str(runs / f"high_seed{seed}" / "policy"), "high", player)
     mono = load_policy(runs / f"mono_seed{seed}" / "policy")
     eval_seed = 1_000_000 + 1000 * seed  # unseen by training (its envs use seed + i)
     lengths = play_methods(high, low, mono, rallies, eval_seed, rules_for_cap(cap), beat,
-                           f"seed {seed} ")
-    # one set of episodes for both the task's statistics and goal following
-    played = play_returns(load_policy(low_prefix), episodes=low_episodes, seed=eval_seed)
-    low_eval = summarise_returns(played)
+                           f"seed {seed} ", player=player)
     return {"lengths": {k: v.tolist() for k, v in lengths.items()},
-            "low_level": {**low_eval.as_dict(), **goal_scores(played, eval_seed, "paper")}}
+            "low_level": low_level_numbers(load_policy(low_prefix), low_episodes, eval_seed,
+                                           player)}
+
+
+def low_level_numbers(policy: Any, episodes: int, seed: int, player: str) -> dict[str, Any]:
+    """The low level on ``episodes`` fresh serves (deterministic policy): SIMPLE's task
+    statistics and goal following from one set of episodes; HUMAN-LIKE's hit rate and racket
+    velocity errors."""
+    if player == "humanlike":
+        from rallysim.eval.humanlike_eval import evaluate_humanlike
+
+        return evaluate_humanlike(policy, episodes=episodes, seed=seed)
+    from rallysim.eval.low_eval import goal_scores, play_returns, summarise_returns
+
+    played = play_returns(policy, episodes=episodes, seed=seed)
+    return {**summarise_returns(played).as_dict(), **goal_scores(played, seed, "paper")}
 
 
 def run_reproduce(budget: Budget, out: Path, workers: int | None = None,
@@ -199,15 +259,17 @@ def run_reproduce(budget: Budget, out: Path, workers: int | None = None,
     out.mkdir(parents=True, exist_ok=True)
     names = result_names(cap)
     start = time.perf_counter()
-    say_stderr(f"reproduce ({budget.name}): {budget.seeds} seeds x (low "
-               f"{budget.low_decisions:,} decisions, high {budget.high_turns:,} turns, mono the "
-               f"same budget, then the evaluation); rallies capped at {cap} hits; "
+    low = (f"low {budget.low_decisions:,} decisions" if budget.player == "simple" else
+           "low: the clone of AimedSwing with DAgger rounds")
+    say_stderr(f"reproduce ({PLAYER_LABELS[budget.player]}, {budget.name}): {budget.seeds} "
+               f"seeds x ({low}, high {budget.high_turns:,} turns, mono the same budget, then "
+               f"the evaluation); rallies capped at {cap} hits; "
                f"{min(workers, budget.seeds)} worker(s); results in {out}")
     curves, per_seed, train_wall = _run_all(budget, out, workers, cap)
     results = summarise(budget, curves, per_seed, train_wall, time.perf_counter() - start, cap)
     (out / names["json"]).write_text(json.dumps(results, indent=1))
     (out / names["report"]).write_text(markdown_report(results))
-    plot_learning_curves(curves, out / names["curves"])
+    plot_learning_curves(curves, out / names["curves"], budget.player)
     plot_survival(results, out / names["survival"])
     say_stderr(f"done in {time.perf_counter() - start:.0f} s: {out / names['report']}")
     return results
@@ -241,7 +303,7 @@ def _evaluation_settings(out: Path, seed: int, budget: Budget, cap: int) -> dict
     for stage in METHOD_STAGES:
         path = out / "runs" / f"{stage}_seed{seed}" / "policy.safetensors"
         policies[stage] = sha256_file(path) if path.is_file() else None
-    return {"cap": cap, "budget": {k: v for k, v in asdict(budget).items() if k != "seeds"},
+    return {"cap": cap, "budget": {k: v for k, v in budget.settings().items() if k != "seeds"},
             "numerics": describe()["environment"], "policies": policies}
 
 
@@ -291,7 +353,7 @@ def run_seed_step(seed: int, step: str, budget: Budget, out: Path, curves: dict[
         with Heartbeat(f"[evaluate seed {seed}]", len(METHODS), lambda t: _say(queue, t),
                        unit="rally sets") as beat:
             result = evaluate_seed(seed, out, budget.rallies, budget.low_eval_episodes, cap,
-                                   beat)
+                                   beat, budget.player)
         path.parent.mkdir(parents=True, exist_ok=True)
         doc = {"seed": seed, "settings": _evaluation_settings(out, seed, budget, cap),
                "result": result}
@@ -418,8 +480,10 @@ def summarise(budget: Budget, curves: dict[int, dict[str, Any]], per_seed: dict[
     low = [per_seed[s]["low_level"] for s in seeds]
     hrl_seeds = [by_seed["HRL"][str(s)] for s in seeds]
     climbs = {str(s): last_climb(curves[s]["high"]) for s in seeds}
+    target = SEED_TARGETS[budget.player]
     checks = {
-        "every_seed_hrl_mean_at_least_40": all(v["mean"]["value"] >= 40 for v in hrl_seeds),
+        f"every_seed_hrl_mean_at_least_{target}": all(v["mean"]["value"] >= target
+                                                      for v in hrl_seeds),
         # a high level whose last third of the budget still added more than a tenth of the cap
         # was stopped while climbing: its table row is its budget's, not its method's
         "no_high_level_still_climbing": all(c is None or c <= CLIMB_TOLERANCE * PAPER_CAP
@@ -432,23 +496,26 @@ def summarise(budget: Budget, curves: dict[int, dict[str, Any]], per_seed: dict[
         "every_seed_hrl_capped_fraction_at_least_0.9": all(
             v["capped"] >= 0.9 * v["n_rallies"] for v in hrl_seeds),
     }
+    if budget.player == "humanlike" and cap >= 1000:  # issue 39: a median rally of 200 hits
+        checks["hrl_median_at_least_200"] = methods["HRL"]["median"]["value"] >= 200
+    paper = ({"table_vii": PAPER_TABLE_VII, "low_level_reward": PAPER_LOW_REWARD}
+             if budget.player == "simple" else None)  # (the paper has no 3-D table)
     return {
-        "budget": asdict(budget),
+        "budget": budget.settings(),
+        "player": budget.player,
         "cap": cap,
         # the CPU and numeric settings of the process that summarised (the workers inherit its
         # environment): learning results differ in their bits between CPUs (docs/numerics.md)
         "numerics": describe(),
         "wall_s": {"training": round(train_wall, 1), "total": round(total_wall, 1)},
-        "paper": {"table_vii": PAPER_TABLE_VII, "low_level_reward": PAPER_LOW_REWARD},
+        "paper": paper,
         "methods": methods,
         "methods_per_seed": by_seed,
         "order_hrl_random_mono_with_disjoint_cis": bool(order_ok),
         "disjoint_above": pairs,
         "checks": checks,
-        "low_level": {"per_seed": low,
-                      "mean_reward": float(np.mean([r["mean_reward"] for r in low])),
-                      "hit_rate": float(np.mean([r["hit_rate"] for r in low])),
-                      "median_error": float(np.mean([r["median_error"] for r in low]))},
+        "low_level": {"per_seed": low, **{k: float(np.mean([r[k] for r in low]))
+                                          for k in LOW_SUMMARY[budget.player]}},
         "per_seed": {str(s): per_seed[s] for s in seeds},
         "high_last_climb": climbs,
         "training": {str(s): {stage: {k: c.get(k) for k in (
@@ -466,16 +533,19 @@ def _ci(e: dict[str, float], digits: int = 2, scale: float = 1.0) -> str:
 def table_vii(r: dict[str, Any]) -> list[str]:
     """The pooled table, beside the paper's numbers."""
     cap = r.get("cap", PAPER_CAP)
+    paper = r["paper"]  # None for the HUMAN-LIKE players: the paper has no 3-D table
     lines = [f"| method | mean rally [95 % CI] | median | IQM [95 % CI] | rallies reaching {cap} "
-             "| worst seed: mean | paper: mean | paper: reaching 50 |",
-             "|---|---|---|---|---|---|---|---|"]
+             "| worst seed: mean |" + (" paper: mean | paper: reaching 50 |" if paper else ""),
+             "|---|---|---|---|---|---|" + ("---|---|" if paper else "")]
     for m, s in r["methods"].items():
-        p = r["paper"]["table_vii"][m]
         w = s["worst_seed"]
-        lines.append(
-            f"| {m} | {_ci(s['mean'])} | {s['median']['value']:.1f} | {_ci(s['iqm'])} | "
-            f"{s['capped']} of {s['n_rallies']} ({100 * s['capped'] / s['n_rallies']:.0f} %) | "
-            f"{w['mean']['value']:.2f} (seed {w['seed']}) | {p['mean']:.2f} | {p['capped']} |")
+        line = (f"| {m} | {_ci(s['mean'])} | {s['median']['value']:.1f} | {_ci(s['iqm'])} | "
+                f"{s['capped']} of {s['n_rallies']} ({100 * s['capped'] / s['n_rallies']:.0f} "
+                f"%) | {w['mean']['value']:.2f} (seed {w['seed']}) |")
+        if paper:
+            p = paper["table_vii"][m]
+            line += f" {p['mean']:.2f} | {p['capped']} |"
+        lines.append(line)
     return lines
 
 
@@ -504,6 +574,14 @@ def losses_table(r: dict[str, Any]) -> list[str]:
 def low_level_table(r: dict[str, Any]) -> list[str]:
     """Each seed's low level on fresh serves (deterministic policy)."""
     per_seed = r["low_level"]["per_seed"]
+    if r.get("player", "simple") == "humanlike":
+        lines = ["| seed | mean episode reward | hit rate | mean angle error | mean speed error |",
+                 "|---|---|---|---|---|"]
+        for seed, low in zip(r["per_seed"], per_seed, strict=True):
+            lines.append(f"| {seed} | {low['mean_reward']:.3f} | {low['hit_rate']:.3f} | "
+                         f"{low['mean_angle_error']:.2f}° | "
+                         f"{low['mean_abs_speed_error']:.3f} |")
+        return lines
     follows = all("goal_correlation" in low for low in per_seed)  # (older runs lack it)
     head = "| seed | mean episode reward | hit rate | landed in | median landing error |"
     lines = [head + (" goal correlation (reachable goals) |" if follows else ""),
@@ -547,6 +625,8 @@ def numerics_line(r: dict[str, Any]) -> str:
 
 
 def markdown_report(r: dict[str, Any]) -> str:
+    if r.get("player", "simple") == "humanlike":
+        return _humanlike_report(r)
     b = r["budget"]
     cap = r.get("cap", PAPER_CAP)
     checks = r.get("checks", {})
@@ -594,7 +674,46 @@ def markdown_report(r: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
-def plot_learning_curves(curves: dict[int, dict[str, Any]], path: Path) -> None:
+def _humanlike_report(r: dict[str, Any]) -> str:
+    """The HUMAN-LIKE reproduction's report: the 3-D Table VII (no paper numbers to set it
+    beside), the same statistics, and the low level's velocity errors."""
+    b, cap, low = r["budget"], r.get("cap", PAPER_CAP), r["low_level"]
+    lines = [
+        "# RallySim's Table VII for the HUMAN-LIKE players (3-D, cooperative rally)",
+        "",
+        f"Budget `{b['name']}`: {b['seeds']} training seeds; per seed the low level cloned "
+        "from the scripted `AimedSwing` with DAgger rounds (not the paper's method: the paper "
+        "trained the HUMAN-LIKE low level with PPO, which misses the target velocity by tens "
+        f"of degrees), the high level {b['high_turns']:,} turns over it, the Monolithic "
+        "baseline the hierarchy's whole budget (the teacher's labelled decisions included); "
+        f"each method then played {b['rallies']} evaluation rallies per seed (capped at {cap} "
+        f"hits). Wall time {r['wall_s']['total'] / 60:.1f} min (training "
+        f"{r['wall_s']['training'] / 60:.1f} min).",
+        "",
+        numerics_line(r),
+        "",
+        *report_tables(r),
+        "",
+        "Pairs whose intervals are disjoint: "
+        + (", ".join(k for k, v in r["disjoint_above"].items() if v) or "none") + ".",
+        "",
+        "Checks: " + ", ".join(f"{k}: **{'yes' if v else 'no'}**"
+                               for k, v in r.get("checks", {}).items()) + ".",
+        "",
+        f"Low level (deterministic policy, {b['low_eval_episodes']} fresh serves per seed): "
+        f"hit rate {low['hit_rate']:.3f}, mean angle error {low['mean_angle_error']:.2f}°, "
+        f"mean speed error {low['mean_abs_speed_error']:.3f}.",
+        "",
+        f"The cap censors the mean: see `{result_names(cap)['survival']}` for "
+        "P(rally length >= k).",
+        "Intervals: hierarchical bootstrap (seeds, then rallies), 2,000 replicates.",
+        "",
+    ]
+    return "\n".join(lines)
+
+
+def plot_learning_curves(curves: dict[int, dict[str, Any]], path: Path,
+                         player: str = "simple") -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -604,7 +723,8 @@ def plot_learning_curves(curves: dict[int, dict[str, Any]], path: Path) -> None:
 
     fig, axes = plt.subplots(1, 3, figsize=(15, 4))
     # (stage, title, the paper's value to draw, if any)
-    panels = [("low", "low level: mean episode reward", PAPER_LOW_REWARD),
+    panels = [("low", "low level: mean episode reward",
+               PAPER_LOW_REWARD if player == "simple" else None),
               ("high", "high level: mean rally length", None),
               ("mono", "Monolithic: mean rally length", None)]
     for ax, (name, title, paper) in zip(axes, panels, strict=True):
