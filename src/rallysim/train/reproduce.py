@@ -625,68 +625,24 @@ def numerics_line(r: dict[str, Any]) -> str:
 
 
 def markdown_report(r: dict[str, Any]) -> str:
-    if r.get("player", "simple") == "humanlike":
-        return _humanlike_report(r)
+    """The report of a reproduction: what ran, on which numerics, its tables and checks."""
     b = r["budget"]
     cap = r.get("cap", PAPER_CAP)
-    checks = r.get("checks", {})
+    humanlike = r.get("player", "simple") == "humanlike"
+    title, method, low_line = (_humanlike_parts if humanlike else _simple_parts)(r)
+    pairs = ("Pairs whose intervals are disjoint: "
+             + (", ".join(k for k, v in r["disjoint_above"].items() if v) or "none") + ".")
+    if not humanlike:  # (the paper has no 3-D table to order)
+        pairs = ("The paper's order HRL > Random High-level > Monolithic, with disjoint 95 % "
+                 "intervals of the mean: "
+                 f"**{'yes' if r['order_hrl_random_mono_with_disjoint_cis'] else 'no'}**. "
+                 + pairs)
     lines = [
-        "# RallySim reproduction of the paper's Table VII (SIMPLE, cooperative rally)",
+        title,
         "",
-        f"Budget `{b['name']}`: {b['seeds']} training seeds; per seed the low level trained "
-        f"{b['low_decisions']:,} decisions"
-        + (" after a behaviour-cloning warm start from the scripted controller (not the paper's "
-           "method: PPO from scratch learns to hit but ignores the goal)"
-           if b["warm_start"] == "scripted" else " from scratch (the paper's method)"
-           if b.get("goals", "uniform") == "uniform" else
-           " from scratch on SimpleReturn-v1 (goals the serve makes reachable; no teacher "
-           "anywhere)")
-        + f", the high level {b['high_turns']:,} turns, the "
-        "Monolithic baseline the same total budget; each method then played "
-        f"{b['rallies']} evaluation rallies per seed (capped at {cap} hits). Wall time "
-        f"{r['wall_s']['total'] / 60:.1f} min (training {r['wall_s']['training'] / 60:.1f} min).",
-        "",
-        numerics_line(r),
-        "",
-        *report_tables(r),
-    ]
-    low = r["low_level"]
-    lines += [
-        "",
-        f"The paper's order HRL > Random High-level > Monolithic, with disjoint 95 % intervals "
-        f"of the mean: **{'yes' if r['order_hrl_random_mono_with_disjoint_cis'] else 'no'}**. "
-        "Pairs whose intervals are disjoint: "
-        + (", ".join(k for k, v in r["disjoint_above"].items() if v) or "none") + ".",
-        "",
-        "Checks: " + ", ".join(f"{k}: **{'yes' if v else 'no'}**" for k, v in checks.items())
-        + ".",
-        "",
-        f"Low level (deterministic policy, {b['low_eval_episodes']} fresh episodes per seed): "
-        f"mean episode reward {low['mean_reward']:.3f} (paper about {PAPER_LOW_REWARD}; the "
-        f"task's ceiling is about 1.72, see `benchmarks/low_level_ceiling.py`), hit rate "
-        f"{low['hit_rate']:.3f}, median landing error {low['median_error']:.2f} m.",
-        "",
-        f"The cap censors the mean: see `{result_names(cap)['survival']}` for "
-        "P(rally length >= k).",
-        "Intervals: hierarchical bootstrap (seeds, then rallies), 2,000 replicates.",
-        "",
-    ]
-    return "\n".join(lines)
-
-
-def _humanlike_report(r: dict[str, Any]) -> str:
-    """The HUMAN-LIKE reproduction's report: the 3-D Table VII (no paper numbers to set it
-    beside), the same statistics, and the low level's velocity errors."""
-    b, cap, low = r["budget"], r.get("cap", PAPER_CAP), r["low_level"]
-    lines = [
-        "# RallySim's Table VII for the HUMAN-LIKE players (3-D, cooperative rally)",
-        "",
-        f"Budget `{b['name']}`: {b['seeds']} training seeds; per seed the low level cloned "
-        "from the scripted `AimedSwing` with DAgger rounds (not the paper's method: the paper "
-        "trained the HUMAN-LIKE low level with PPO, which misses the target velocity by tens "
-        f"of degrees), the high level {b['high_turns']:,} turns over it, the Monolithic "
-        "baseline the hierarchy's whole budget (the teacher's labelled decisions included); "
-        f"each method then played {b['rallies']} evaluation rallies per seed (capped at {cap} "
+        f"Budget `{b['name']}`: {b['seeds']} training seeds; per seed {method}, the high level "
+        f"{b['high_turns']:,} turns, the Monolithic baseline the same total budget; each "
+        f"method then played {b['rallies']} evaluation rallies per seed (capped at {cap} "
         f"hits). Wall time {r['wall_s']['total'] / 60:.1f} min (training "
         f"{r['wall_s']['training'] / 60:.1f} min).",
         "",
@@ -694,15 +650,12 @@ def _humanlike_report(r: dict[str, Any]) -> str:
         "",
         *report_tables(r),
         "",
-        "Pairs whose intervals are disjoint: "
-        + (", ".join(k for k, v in r["disjoint_above"].items() if v) or "none") + ".",
+        pairs,
         "",
         "Checks: " + ", ".join(f"{k}: **{'yes' if v else 'no'}**"
                                for k, v in r.get("checks", {}).items()) + ".",
         "",
-        f"Low level (deterministic policy, {b['low_eval_episodes']} fresh serves per seed): "
-        f"hit rate {low['hit_rate']:.3f}, mean angle error {low['mean_angle_error']:.2f}°, "
-        f"mean speed error {low['mean_abs_speed_error']:.3f}.",
+        low_line,
         "",
         f"The cap censors the mean: see `{result_names(cap)['survival']}` for "
         "P(rally length >= k).",
@@ -710,6 +663,41 @@ def _humanlike_report(r: dict[str, Any]) -> str:
         "",
     ]
     return "\n".join(lines)
+
+
+def _simple_parts(r: dict[str, Any]) -> tuple[str, str, str]:
+    """The SIMPLE report's title, low-level method and low-level line."""
+    b, low = r["budget"], r["low_level"]
+    method = (f"the low level trained {b['low_decisions']:,} decisions"
+              + (" after a behaviour-cloning warm start from the scripted controller (not the "
+                 "paper's method: PPO from scratch learns to hit but ignores the goal)"
+                 if b["warm_start"] == "scripted" else " from scratch (the paper's method)"
+                 if b.get("goals", "uniform") == "uniform" else
+                 " from scratch on SimpleReturn-v1 (goals the serve makes reachable; no "
+                 "teacher anywhere)"))
+    low_line = (f"Low level (deterministic policy, {b['low_eval_episodes']} fresh episodes per "
+                f"seed): mean episode reward {low['mean_reward']:.3f} (paper about "
+                f"{PAPER_LOW_REWARD}; the task's ceiling is about 1.72, see "
+                f"`benchmarks/low_level_ceiling.py`), hit rate {low['hit_rate']:.3f}, median "
+                f"landing error {low['median_error']:.2f} m.")
+    return ("# RallySim reproduction of the paper's Table VII (SIMPLE, cooperative rally)",
+            method, low_line)
+
+
+def _humanlike_parts(r: dict[str, Any]) -> tuple[str, str, str]:
+    """The HUMAN-LIKE report's: the low level is the clone of ``AimedSwing``, and the
+    Monolithic budget counts the teacher's labelled decisions."""
+    b, low = r["budget"], r["low_level"]
+    method = ("the low level cloned from the scripted `AimedSwing` with DAgger rounds (not the "
+              "paper's method: the paper trained the HUMAN-LIKE low level with PPO, which "
+              "misses the target velocity by tens of degrees; the teacher's labelled decisions "
+              "count in the Monolithic budget)")
+    low_line = (f"Low level (deterministic policy, {b['low_eval_episodes']} fresh serves per "
+                f"seed): hit rate {low['hit_rate']:.3f}, mean angle error "
+                f"{low['mean_angle_error']:.2f}°, mean speed error "
+                f"{low['mean_abs_speed_error']:.3f}.")
+    return ("# RallySim's Table VII for the HUMAN-LIKE players (3-D, cooperative rally)",
+            method, low_line)
 
 
 def plot_learning_curves(curves: dict[int, dict[str, Any]], path: Path,
