@@ -251,3 +251,6 @@ def test_evaluate_says_first_what_it_measures(argv, header, capsys):
     lines = capsys.readouterr().out.splitlines()
     assert lines[0] == header
     assert any("mean rally" in line and " [" in line for line in lines[1:])
+    # and where the rallies were lost, for either kind of player
+    assert any("lost before hit 2" in line and "miss rate per later hit" in line
+               for line in lines[1:])

@@ -138,6 +138,7 @@ def _evaluate_humanlike(args: argparse.Namespace) -> dict:
           f"|speed error| {r['mean_abs_speed_error']:.3f} (<= {t['mean_abs_speed_error']})")
     print(_rally_line(f"rally, {results['policies']['high']} goals", results["rally"])
           + f"  (target mean >= {t['mean_rally']:g})")
+    print(_losses_line("where lost", results["rally"]))
     return results
 
 
