@@ -6,6 +6,8 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import pytest
+
 from experiments import first_exchange
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -22,8 +24,9 @@ def test_the_scripted_profile():
     assert went_on is not None and went_on > 0.8
 
 
-def test_the_research_log_shows_the_committed_profiles():
-    data = json.loads((ROOT / "docs/data/first_exchange_seeds10.json").read_text())
+@pytest.mark.parametrize("name", ["first_exchange_seeds10", "first_exchange_seeds10_generic"])
+def test_the_research_log_shows_the_committed_profiles(name):
+    data = json.loads((ROOT / "docs/data" / f"{name}.json").read_text())
     lines = first_exchange.table({int(k): v for k, v in data.items()})
     page = (ROOT / "docs/research-log/reproduce.md").read_text()
     for line in lines:

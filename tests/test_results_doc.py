@@ -18,7 +18,8 @@ def test_every_generated_block_matches_its_json():
     doc = DOC.read_text()
     names = blocks(doc)
     assert {"reproduce_default", "reproduce_seeds5", "reproduce_seeds5_cap1000",
-            "reproduce_seeds10"} <= set(names)
+            "reproduce_seeds10", "reproduce_seeds10_generic",
+            "reproduce_seeds10_generic_cap1000"} <= set(names)
     assert regenerate(doc, DATA) == doc, "run: python -m rallysim.train.results_doc"
     assert main(["--check"]) == 0
 
