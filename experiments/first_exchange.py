@@ -68,15 +68,6 @@ def play(low: Any, high: Any, rallies: int, seed: int, goal: float = 3.5) -> dic
     return {"lengths": lengths, "states": states, "waiting": np.concatenate(waiting)}
 
 
-def meetable(planner: ShotPlanner, state: PlayerState, base: float | None) -> np.ndarray:
-    """Whether each shuttle of ``state`` can be met at full speed from base x ``base`` (None:
-    where the player stands)."""
-    if base is not None:
-        state = PlayerState(base_x=np.full(len(state.base_x), base), theta=state.theta,
-                            pos=state.pos, vel=state.vel)
-    return planner.meetings(state).feasible.any(axis=1)
-
-
 def meetable_from_any_base(planner: ShotPlanner, pos: np.ndarray, vel: np.ndarray
                            ) -> np.ndarray:
     """Whether shuttles at ``pos`` with ``vel`` (N, 3; the receiver's own frame) can be met at
@@ -116,10 +107,8 @@ def profile(played: dict[str, Any]) -> dict[str, Any]:
     lost_at = 1 if (lengths == 1).sum() >= (lengths == 2).sum() else 2
     state = played["states"][lost_at]
     lost, kept = lengths == lost_at, lengths > lost_at
-    here = meetable(planner, state, None)
-    best = np.zeros(len(lengths), bool)
-    for base in BASES:
-        best |= meetable(planner, state, base)
+    here = planner.meetings(state).feasible.any(axis=1)  # from where the player stood
+    best = meetable_from_any_base(planner, state.pos, state.vel)
     other = another_shot(planner, played["states"][lost_at - 1])
     out["lost_turn"] = {
         "hits": lost_at, "rallies_lost": int(lost.sum()),

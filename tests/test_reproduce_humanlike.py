@@ -56,7 +56,7 @@ def test_humanlike_reproduce_end_to_end(tmp_path):
     env_ids = {stage: json.loads((out / "runs" / f"{stage}_seed0" / "policy.json").read_text()
                                  )["env_id"] for stage in ("low", "high", "mono")}
     assert env_ids["low"] == "RallySim/HumanLikeReturn-v0"
-    assert "humanlike_rally_turn" in env_ids["high"].lower() or "HumanLike" in env_ids["high"]
+    assert env_ids["high"] == "RallySim/HumanLikeRallyTurn-v0"
     assert env_ids["mono"] == "rallysim.envs.humanlike_rally_v0:HumanLikeRallyVectorEnv"
     # Monolithic got the hierarchy's budget: the teacher's labelled decisions and two
     # player-decisions per rally decision of the high stage

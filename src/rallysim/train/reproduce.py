@@ -39,6 +39,7 @@ from typing import Any
 import numpy as np
 
 from rallysim.eval.rally_eval import PAPER_CAP
+from rallysim.train.players import PLAYERS
 from rallysim.train.progress import Heartbeat, say_stderr
 from rallysim.train.study_tables import number_cell
 
@@ -130,7 +131,6 @@ def budget_named(name: str, player: str = "simple") -> Budget:
                          + ", ".join(repr(k) for k in table))
     return table[name]
 METHOD_STAGES = ("low", "high", "mono")  # Table VII's stages (not compete)
-PLAYER_LABELS = {"simple": "SIMPLE", "humanlike": "HUMAN-LIKE"}
 
 
 def _say(queue: Any, text: str) -> None:
@@ -229,17 +229,14 @@ def evaluate_seed(seed: int, out: Path, rallies: int, low_episodes: int,
 
 
 def low_level_numbers(policy: Any, episodes: int, seed: int, player: str) -> dict[str, Any]:
-    """The low level on ``episodes`` fresh serves (deterministic policy): SIMPLE's task
-    statistics and goal following from one set of episodes; HUMAN-LIKE's hit rate and racket
-    velocity errors."""
-    if player == "humanlike":
-        from rallysim.eval.humanlike_eval import evaluate_humanlike
+    """The low level on ``episodes`` fresh serves from ``seed`` (deterministic policy), judged
+    as the low stage judges it (SIMPLE: the task's statistics and goal following; HUMAN-LIKE:
+    the hit rate and the racket velocity's errors)."""
+    from rallysim.train.config import load_config
+    from rallysim.train.stages import LOW
 
-        return evaluate_humanlike(policy, episodes=episodes, seed=seed)
-    from rallysim.eval.low_eval import goal_scores, play_returns, summarise_returns
-
-    played = play_returns(policy, episodes=episodes, seed=seed)
-    return {**summarise_returns(played).as_dict(), **goal_scores(played, seed, "paper")}
+    config = load_config("low", None, {"player": player, "eval.seed": seed})
+    return LOW.evaluate(config, policy, episodes)
 
 
 def run_reproduce(budget: Budget, out: Path, workers: int | None = None,
@@ -262,7 +259,7 @@ def run_reproduce(budget: Budget, out: Path, workers: int | None = None,
     start = time.perf_counter()
     low = (f"low {budget.low_decisions:,} decisions" if budget.player == "simple" else
            "low: the clone of AimedSwing with DAgger rounds")
-    say_stderr(f"reproduce ({PLAYER_LABELS[budget.player]}, {budget.name}): {budget.seeds} "
+    say_stderr(f"reproduce ({PLAYERS[budget.player].label}, {budget.name}): {budget.seeds} "
                f"seeds x ({low}, high {budget.high_turns:,} turns, mono the same budget, then "
                f"the evaluation); rallies capped at {cap} hits; "
                f"{min(workers, budget.seeds)} worker(s); results in {out}")

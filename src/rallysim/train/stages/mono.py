@@ -25,11 +25,14 @@ class MonoStage(Stage):
     slots_per_env: ClassVar[int] = 2
 
     def make_env(self, config: TrainConfig) -> NativeVecEnv:
+        from gymnasium.envs.registration import load_env_creator
+
         from rallysim.train.sb3_vec import NativeVecEnv
 
         rallies = config.ppo.n_envs // self.slots_per_env
-        return NativeVecEnv(_vector_env(config)(rallies, autoreset_mode="same_step",
-                                                seed=config.seed, shuttle=config.shuttle))
+        vector_env = load_env_creator(VECTOR_ENVS[config.player])  # ("module:class")
+        return NativeVecEnv(vector_env(rallies, autoreset_mode="same_step", seed=config.seed,
+                                       shuttle=config.shuttle))
 
     def evaluate(self, config: TrainConfig, act: Policy, rallies: int | None = None
                  ) -> dict[str, Any]:
@@ -48,13 +51,6 @@ class MonoStage(Stage):
 # each player's rally as slots: "module:class"
 VECTOR_ENVS = {"simple": "rallysim.envs.simple_rally_v0:SimpleRallyVectorEnv",
                "humanlike": "rallysim.envs.humanlike_rally_v0:HumanLikeRallyVectorEnv"}
-
-
-def _vector_env(config: TrainConfig) -> Any:
-    import importlib
-
-    module, name = VECTOR_ENVS[config.player].split(":")
-    return getattr(importlib.import_module(module), name)
 
 
 MONO = MonoStage()
