@@ -23,7 +23,8 @@ def test_budgets_by_player():
     assert hl.player == "humanlike" and hl.low_decisions == 0  # the clone is the low level
     assert hl.overrides("low")["player"] == "humanlike"
     assert "goals" not in hl.overrides("low")  # (a SIMPLE task setting)
-    assert budget_named("quick", "humanlike").overrides("low")["warm_start.dagger"] == 2
+    quick = budget_named("quick", "humanlike").overrides("low")
+    assert quick["warm_start.dagger"] == 1 and quick["warm_start.rally_dagger"] == 2
     with pytest.raises(ValueError, match="no budget 'scratch'; valid: 'default'"):
         budget_named("scratch", "humanlike")
     with pytest.raises(ValueError, match="unknown player"):
@@ -63,6 +64,10 @@ def test_humanlike_reproduce_end_to_end(tmp_path):
     train = results["training"]["0"]
     cloned = train["low"]["warm_start"]["samples"]
     assert cloned > 0 and train["low"]["steps"] == 0
+    # the clone's one round inside the rally: 2,048 decisions labelled, counted in the budget
+    rounds = train["low"]["warm_start"]["rounds"]
+    assert [r["round"] for r in rounds] == [0, 1]
+    assert rounds[1]["labelled_decisions"] - rounds[0]["labelled_decisions"] == 2048
     assert train["mono"]["steps"] >= cloned + 2 * train["high"]["decisions_simulated"]
     low = results["low_level"]
     assert set(low) >= {"mean_angle_error", "mean_abs_speed_error", "hit_rate"}

@@ -106,10 +106,11 @@ BUDGETS = {
 HUMANLIKE_BUDGETS = {
     "default": Budget("default", 0, 32_768, 3, 200, 500, player="humanlike"),
     "quick": Budget("quick", 0, 8_192, 3, 100, 200, player="humanlike",
-                    low_extra=(("warm_start.decisions", 65_536), ("warm_start.dagger", 2),
-                               ("warm_start.epochs", 10))),
+                    low_extra=(("warm_start.decisions", 65_536), ("warm_start.dagger", 1),
+                               ("warm_start.rally_dagger", 2), ("warm_start.epochs", 10))),
     "smoke": Budget("smoke", 0, 256, 2, 8, 16, player="humanlike",
-                    low_extra=(("warm_start.decisions", 8_192), ("warm_start.dagger", 1),
+                    low_extra=(("warm_start.decisions", 8_192), ("warm_start.dagger", 0),
+                               ("warm_start.rally_dagger", 1),
                                ("warm_start.epochs", 2), ("warm_start.batch_size", 256))),
 }
 # the target of every seed's HRL mean at the paper's cap (issues 36 and 39)
@@ -197,7 +198,9 @@ def train_seed_stage(seed: int, stage: str, budget: Budget, out: Path,
     what = f"training {config.budget:,} {config.budget_unit}"
     if config.budget == 0 and config.warm_start.enabled:  # the clone is the policy
         what = (f"cloning the scripted player ({config.warm_start.decisions:,} decisions, "
-                f"{config.warm_start.dagger} DAgger rounds; no PPO after it)")
+                f"{config.warm_start.dagger} DAgger rounds"
+                + (f", {config.warm_start.rally_dagger} in the rally"
+                   if config.warm_start.rally_dagger else "") + "; no PPO after it)")
     _say(queue, f"[seed {seed}] {stage}: {what} ...")
     curve = train_stage(config, run, progress=False, say=lambda text: _say(queue, text))
     _say(queue, f"[seed {seed}] {stage}: done in {time.perf_counter() - t:.0f} s, "

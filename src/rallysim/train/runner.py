@@ -235,14 +235,16 @@ def warm_start(model: Any, config: TrainConfig, progress: bool, out: Path | None
     teacher, name = stage.teacher(config)
     settings = config.warm_start
     if progress:
+        rally = f", +{settings.rally_dagger} in the rally" if settings.rally_dagger else ""
         print(f"warm start: cloning {name} over {settings.decisions:,} decisions "
-              f"(+{settings.dagger} DAgger rounds) ...", file=sys.stderr, flush=True)
+              f"(+{settings.dagger} DAgger rounds{rally}) ...", file=sys.stderr, flush=True)
 
     def evaluate(act: Any, round_: int) -> dict[str, Any]:
         # the clone's learning curve over its DAgger rounds, with the stage's own numbers
         result = stage.evaluate(config, act)
         if progress:
-            step = f"DAgger round {round_}" if round_ else "clone"
+            step = ("clone" if not round_ else f"DAgger round {round_}"
+                    + (" (rally)" if round_ > settings.dagger else ""))
             print(f"[warm start] {step}: {stage.headline(config, result)}", file=sys.stderr,
                   flush=True)
         return result
@@ -253,7 +255,8 @@ def warm_start(model: Any, config: TrainConfig, progress: bool, out: Path | None
                                     extra={"eval_episodes": config.eval.episodes,
                                            "eval_seed": config.eval.seed})
     result = behaviour_clone(model, teacher, settings, stage.clone_task(config),
-                             evaluate=evaluate if settings.dagger else None,
+                             evaluate=evaluate if settings.dagger or settings.rally_dagger
+                             else None,
                              checkpoint=checkpoint, fitted=fitted)
     return {**result, "teacher": name}
 

@@ -86,7 +86,9 @@ _PPO_BOUNDS: dict[str, Bound] = {
 class WarmStartSettings:
     """Behaviour cloning of the player's scripted controller before PPO (the low stage; not the
     paper's method): ``decisions`` of its play fitted for ``epochs``, then ``dagger`` rounds in
-    which the clone plays a quarter as many decisions and the teacher labels them."""
+    which the clone plays a quarter as many decisions and the teacher labels them, then
+    ``rally_dagger`` rounds of as many decisions inside the turn-based rally, each turn's goal
+    drawn from the central ``rally_spread`` of the goal range."""
 
     SECTION: ClassVar[str] = "warm_start"
 
@@ -98,6 +100,8 @@ class WarmStartSettings:
     lr_decay: bool = False  # cosine decay of the clone's learning rate over each fit
     log_std: float = -1.5  # the actor's log-std once cloned (small: the clone is already good)
     dagger: int = 0
+    rally_dagger: int = 0
+    rally_spread: float = 0.5
 
     def __post_init__(self) -> None:
         values.check_fields(self, "warm_start.", {"teacher": ("none", "scripted")},
@@ -110,7 +114,8 @@ class WarmStartSettings:
 
 _WARM_BOUNDS: dict[str, Bound] = {
     "decisions": at_least(1), "epochs": at_least(1), "batch_size": at_least(1),
-    "lr": above(0), "dagger": at_least(0),
+    "lr": above(0), "dagger": at_least(0), "rally_dagger": at_least(0),
+    "rally_spread": values.within(0, 1),
 }
 
 

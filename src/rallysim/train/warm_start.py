@@ -6,7 +6,10 @@ player's low-level task (``CloneTask``); the actor's mean is fitted to its actio
 teacher's actions are already in [-1, 1]) and the critic to the discounted returns it earned,
 so that PPO's first advantages are not noise that would undo the clone. With ``dagger`` > 0
 rounds the clone then plays itself and the teacher labels the states it reaches (DAgger), so
-that it also learns to recover from its own mistakes. The log-std is then set to ``log_std``
+that it also learns to recover from its own mistakes. With ``rally_dagger`` > 0 further rounds
+the clone plays both players of the player's turn-based rally, on goals drawn at each turn from
+the central ``rally_spread`` of the goal range, and the teacher labels every decision it makes
+there: a rally's incoming shots are not the task's serves. The log-std is then set to ``log_std``
 (small: the clone is already good). The settings are the ``warm_start`` section of the
 training configuration (``rallysim.train.sections.WarmStartSettings``).
 
@@ -95,6 +98,68 @@ def teacher_dataset(teacher: Policy, task: CloneTask, n_envs: int, decisions: in
         running = rewards[t] + gamma * running * ~dones[t]
         returns[t], valid[t] = running, complete
     return all_obs[valid], all_act[valid], returns[valid].astype(np.float32), weights[valid]
+
+
+class _RallyLabeller:
+    """A rally's low level ``(observations, goals) -> actions`` that plays ``actor`` and keeps
+    the teacher's label of each decision, in the low-level task's observations. A rally held
+    still while the rest of its batch finishes a turn repeats its observation: that row is not
+    kept again."""
+
+    def __init__(self, teacher: Policy, actor: Policy, low_observations: Callable) -> None:
+        self.teacher, self.actor, self.low_observations = teacher, actor, low_observations
+        self.weigh = getattr(teacher, "imitation_weights", None)
+        self.rows: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+        self.kept = 0
+        self._last: np.ndarray | None = None
+
+    def __call__(self, obs: np.ndarray, goals: np.ndarray) -> np.ndarray:
+        low = np.asarray(self.low_observations(obs, goals), np.float32)
+        act = np.asarray(self.teacher(low), np.float32)
+        weight = np.ones_like(act)
+        if self.weigh is not None:
+            w = np.asarray(self.weigh(), np.float32)
+            weight[:] = w[:, None] if w.ndim == 1 else w
+        moved = (np.ones(len(low), bool) if self._last is None or self._last.shape != low.shape
+                 else np.any(low != self._last, axis=1))
+        self._last = low
+        self.rows.append((low[moved], act[moved], weight[moved]))
+        self.kept += int(moved.sum())
+        return np.asarray(self.actor(low), np.float32)
+
+
+def rally_dataset(teacher: Policy, task: CloneTask, rows: int, seed: int, actor: Policy,
+                  spread: float, n_rallies: int = N_ENVS // 2
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(obs, teacher's actions, returns, sample weights) of ``rows`` low-level decisions that
+    ``actor`` makes for both players of ``task.player``'s turn-based rally (``n_rallies`` at
+    once, cooperative rules, from ``seed``), each turn's goal drawn uniformly from the central
+    ``spread`` of the goal range; whole batches are played and ``rows`` of their decisions
+    drawn uniformly. A rally has no low-level return: those are NaN, which the critic's fit
+    skips."""
+    from rallysim.core.tasks.rally import RallyConfig
+    from rallysim.eval.rally_eval import play_turns
+    from rallysim.players import get_player
+
+    player = get_player(task.player)
+    rng = np.random.default_rng(seed)
+    size = max(player.goal.size, 1)
+
+    def goals(obs: np.ndarray) -> np.ndarray:
+        drawn = rng.uniform(-spread, spread, (len(obs), size))
+        return player.goal.from_action(drawn if player.goal.size > 1 else drawn[:, 0])
+
+    labeller = _RallyLabeller(teacher, actor, player.low_observations)
+    rules = RallyConfig(shuttle=task.shuttle)
+    batch = 0
+    while labeller.kept < rows:
+        play_turns(goals, labeller, n_rallies, seed + 104_729 * batch, rules, player=player)
+        batch += 1
+    # a uniform sample of what was played, not its first rows: those are the rallies' starts
+    keep = np.sort(rng.choice(labeller.kept, rows, replace=False))
+    obs, act, weight = (np.concatenate(parts)[keep] for parts in zip(*labeller.rows,
+                                                                      strict=True))
+    return obs, act, np.full(rows, np.nan, np.float32), weight
 
 
 def _say_stderr(text: str) -> None:
@@ -313,6 +378,8 @@ def behaviour_clone(model: PPO, teacher: Policy, settings: WarmStartSettings, ta
                   "evaluated": evaluate is not None,
                   "network": {k: list(v.shape) for k, v in policy.state_dict().items()},
                   **checkpoint.extra}
+        if settings.rally_dagger:  # absent otherwise, so that earlier warm starts resume
+            record.update(rally_rounds=settings.rally_dagger, rally_spread=settings.rally_spread)
         store = _Store(checkpoint, record, policy, optimiser, gen)
         restored = store.restore()
         if restored is not None:
@@ -334,13 +401,19 @@ def behaviour_clone(model: PPO, teacher: Policy, settings: WarmStartSettings, ta
             run.elapsed_s, mark = run.elapsed_s + now - mark, now
             store.save(run)
 
-    for k in range(run.round, dagger_rounds + 1):  # round 0: the teacher plays; then the clone
+    # round 0: the teacher plays; then the clone, in the task, then in the rally
+    for k in range(run.round, dagger_rounds + settings.rally_dagger + 1):
         run.round = k
         size = decisions if k == 0 else max(N_ENVS, decisions // 4)
         if len(data) <= k:
-            data.append(teacher_dataset(teacher, task, N_ENVS, size, model.gamma,
-                                        seed + 7919 * k, actor=student if k else None))
-            run.labelled += max(1, size // N_ENVS) * N_ENVS  # whole batch steps are played
+            if k > dagger_rounds:
+                data.append(rally_dataset(teacher, task, size, seed + 7919 * k, student,
+                                          settings.rally_spread))
+                run.labelled += size
+            else:
+                data.append(teacher_dataset(teacher, task, N_ENVS, size, model.gamma,
+                                            seed + 7919 * k, actor=student if k else None))
+                run.labelled += max(1, size // N_ENVS) * N_ENVS  # whole batch steps are played
             run.epoch, run.evaluated = 0, False
             if store is not None:
                 store.save_data(k, data[k])
@@ -382,7 +455,18 @@ def _fit_epochs(epochs: int, round_: int) -> int:
 
 def total_fit_epochs(settings: WarmStartSettings) -> int:
     """Epochs a whole warm start fits, over all its rounds."""
-    return sum(_fit_epochs(settings.epochs, r) for r in range(settings.dagger + 1))
+    return sum(_fit_epochs(settings.epochs, r)
+               for r in range(settings.dagger + settings.rally_dagger + 1))
+
+
+def _critic_loss(value: Any, target: Any) -> Any:
+    """The critic's squared error over the samples with a return (a rally's have none)."""
+    known = torch.isfinite(target)
+    if bool(known.all()):
+        return torch.mean((value - target) ** 2)
+    if not bool(known.any()):
+        return value.sum() * 0.0
+    return torch.mean((value[known] - target[known]) ** 2)
 
 
 def _fit(policy: Any, optimiser: Any, gen: Any, data: list[tuple[np.ndarray, ...]],
@@ -406,7 +490,7 @@ def _fit(policy: Any, optimiser: Any, gen: Any, data: list[tuple[np.ndarray, ...
             mean = policy.action_net(latent_pi)
             value = policy.value_net(latent_vf)
             actor_loss = torch.mean(w[idx] * (mean - a[idx]) ** 2)
-            critic_loss = torch.mean((value - g[idx]) ** 2)
+            critic_loss = _critic_loss(value, g[idx])
             optimiser.zero_grad()
             (actor_loss + 0.5 * critic_loss).backward()
             optimiser.step()
