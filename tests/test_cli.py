@@ -216,10 +216,10 @@ def test_bad_cap_and_seeds_are_one_line_errors(argv, capsys):
 
 
 @pytest.mark.numerics  # (the seeded episodes' lengths)
-@pytest.mark.parametrize("env, frames", [("rally", 44), ("low", 36)])
+@pytest.mark.parametrize("env, frames", [("rally", 751), ("low", 36)])
 def test_render_humanlike_writes_the_3d_rally_and_return(env, frames, tmp_path, capsys):
-    """--player humanlike with the shipped pretrained levels: seed 3's rally (2 hits in 43
-    decisions, as RallySim/HumanLikeRallyTurn-v0 plays it), or seed 3's episode of
+    """--player humanlike with the shipped pretrained levels: seed 3's rally (to the cap of 50
+    hits, in 750 decisions, as RallySim/HumanLikeRallyTurn-v0 plays it), or seed 3's episode of
     RallySim/HumanLikeReturn-v0 (35 decisions); a frame before each decision and the last."""
     pytest.importorskip("imageio")
     import imageio.v3 as iio

@@ -276,22 +276,23 @@ def player_mask(view: SceneRenderer, player: int) -> np.ndarray:
 @pytest.mark.numerics
 def test_record_rally_draws_the_seeded_3d_rally(monkeypatch):
     """``rallysim render --player humanlike``'s recorder with the shipped pretrained levels:
-    the rally ``RallySim/HumanLikeRallyTurn-v0`` plays reset with the same seed (seed 6: 16
-    hits in 210 decisions), a frame before each decision and one at the end, both players
-    drawn where the game has them, and the goals' arrows."""
+    the rally ``RallySim/HumanLikeRallyTurn-v0`` plays reset with the same seed and a cap of
+    12 hits (seed 6: to the cap, in 172 decisions), a frame before each decision and one at the
+    end, both players drawn where the game has them, and the goals' arrows."""
+    from rallysim.core.tasks.rally import RallyConfig
     from rallysim.core.tasks.turn_loop import TurnLoop
     from rallysim.envs.humanlike_rally_turn_v0 import HumanLikeRallyTurnEnv
     from rallysim.eval.humanlike_eval import rally_goals
     from rallysim.render.record import record_rally
 
-    env = HumanLikeRallyTurnEnv(low_level="pretrained")
+    env = HumanLikeRallyTurnEnv(low_level="pretrained", max_hits=12)
     obs, _ = env.reset(seed=6)
     high = rally_goals("pretrained")
     done, decisions = False, 0
     while not done:
         obs, _, term, trunc, info = env.step(high(obs[None])[0])
         decisions, done = decisions + info["decisions"], term or trunc
-    assert (info["rally_length"], decisions) == (16, 210)
+    assert (info["rally_length"], decisions) == (12, 172)
 
     lengths = []
     real = TurnLoop.step
@@ -303,13 +304,13 @@ def test_record_rally_draws_the_seeded_3d_rally(monkeypatch):
 
     monkeypatch.setattr(TurnLoop, "step", step)
     with SceneRenderer(2, 320, 180, player="humanlike") as view:
-        frames = record_rally(1, rally_goals("pretrained"), "pretrained", 6, renderer=view,
-                              player="humanlike")
+        frames = record_rally(1, rally_goals("pretrained"), "pretrained", 6,
+                              RallyConfig(max_hits=12), renderer=view, player="humanlike")
         assert view.camera == "three_quarter_close"
         chest = [view.project(view.data.body(f"p{p}_chest").xpos) for p in range(2)]
         last = view.render_current()  # the state the recorder left: the rally's end
         bodies = [player_mask(view, p) for p in range(2)]
-    assert len(frames) == decisions + 1 == len(lengths) + 1 and lengths[-1] == 16
+    assert len(frames) == decisions + 1 == len(lengths) + 1 and lengths[-1] == 12
     assert all(f.shape == (180, 320, 3) and f.dtype == np.uint8 for f in frames)
     assert np.array_equal(frames[-1][50:], last[50:])  # below the HUD, the same picture
     # both bodies drawn where the game has them: around the projection of the chest (the

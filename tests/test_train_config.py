@@ -149,7 +149,11 @@ def test_shipped_policies_metadata_reads_as_a_config(name):
         config = TrainConfig.from_dict(record, warn=False)
     player, stage = name.split("_")
     assert (config.player, config.stage, meta["stage"]) == (player, stage, stage)
-    for old, value in record.items():  # every recorded value lands under its new name
+    # a record is flat with the old names, or nested by section as runs write it today
+    flat = {f"{key}.{k}" if isinstance(value, dict) else key: v
+            for key, value in record.items()
+            for k, v in (value.items() if isinstance(value, dict) else [(None, value)])}
+    for old, value in flat.items():  # every recorded value lands under its new name
         new = LEGACY_KEYS.get(old, old)
         got = _value(config, new)
         assert (list(got) if isinstance(got, tuple) else got) == value, old

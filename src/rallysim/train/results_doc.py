@@ -32,6 +32,7 @@ def render(results: dict[str, Any]) -> str:
         f"{b['seeds']} training seeds, {b['rallies']} evaluation rallies per seed and method, "
         f"rallies capped at {cap} hits.",
         "",
+        *_where_run(results),
         *report_tables(results),
         "",
         "Checks: " + ", ".join(f"`{k}` **{'yes' if v else 'no'}**" for k, v in checks.items())
@@ -39,6 +40,23 @@ def render(results: dict[str, Any]) -> str:
         "",
     ]
     return "\n".join(lines)
+
+
+def _where_run(results: dict[str, Any]) -> list[str]:
+    """For a HUMAN-LIKE reproduction: the command, the CPU and the numeric settings it ran
+    with (the SIMPLE pages say so in their own words)."""
+    if results.get("player") != "humanlike":
+        return []
+    b, cap, num = results["budget"], results["cap"], results["numerics"]
+    command = "rallysim reproduce --player humanlike" + (
+        f" --budget {b['name']}" if b["name"] != "default" else "") + (
+        f" --cap {cap}" if cap != 50 else "")
+    setting = ", ".join(f"{k}={v}" for k, v in sorted(num["environment"].items())) or "none"
+    return [f"Command: `{command}`; CPU {num['cpu']} "
+            f"({'with' if num['avx512'] else 'without'} AVX-512), torch's kernels "
+            f"{num['torch_cpu_capability']}, NumPy's SIMD {', '.join(num['numpy_simd'])}; "
+            f"numeric variables set: {setting}.",
+            ""]
 
 
 def _renderer(kind: str | None) -> Callable[[dict[str, Any]], str]:
