@@ -132,7 +132,8 @@ def test_humanlike_low_level_trains_and_reports_its_errors(tmp_path):
     overrides = {**TINY, "budget": 1024, "player": "humanlike", "warm_start.teacher": "none"}
     config = load_config("low", None, overrides)
     # the player's packaged settings apply under the user's
-    assert (config.ppo.net_arch, config.warm_start.dagger) == ((256, 256), 6)
+    assert (config.ppo.net_arch, config.warm_start.dagger, config.warm_start.rally_dagger) == (
+        (256, 256), 4, 2)
     curve = train_stage(config, tmp_path, progress=False)
     final = curve["final"]
     assert {"hit_rate", "mean_angle_error", "mean_abs_speed_error"} <= set(final)
