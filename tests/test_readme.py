@@ -114,3 +114,15 @@ def test_the_first_step_figures_are_the_committed_json():
         assert f"{r['cold']['first_step_s']:.1f} s" in text
         assert f"{r['warm_median_s']:.2f} s" in text
         assert f"{r['warm_without_scipy_median_s']:.2f} s" in text
+
+
+def test_the_readme_3d_results_are_the_committed_json():
+    data = json.loads((DATA / "reproduce_humanlike.json").read_text())
+    assert data["player"] == "humanlike" and data["cap"] == 50
+    text = " ".join(README.read_text().split())
+    for method in ("HRL", "Random High-level", "Monolithic"):
+        mean = data["methods"][method]["mean"]
+        shown = f"{method} {mean['value']:.2f} [{mean['low']:.2f}, {mean['high']:.2f}]"
+        assert shown in text, shown
+    worst = min(v["mean"]["value"] for v in data["methods_per_seed"]["HRL"].values())
+    assert worst > 48  # "every seed's hierarchy above 48 hits"

@@ -52,9 +52,13 @@ def _where_run(results: dict[str, Any]) -> list[str]:
         f" --budget {b['name']}" if b["name"] != "default" else "") + (
         f" --cap {cap}" if cap != 50 else "")
     setting = ", ".join(f"{k}={v}" for k, v in sorted(num["environment"].items())) or "none"
+    # a run whose summary did not load torch recorded no capability: then it is torch's own
+    # choice for the CPU unless ATEN_CPU_CAPABILITY set one
+    torch = num.get("torch_cpu_capability") or num["environment"].get(
+        "ATEN_CPU_CAPABILITY", "torch's default for this CPU")
     return [f"Command: `{command}`; CPU {num['cpu']} "
-            f"({'with' if num['avx512'] else 'without'} AVX-512), torch's kernels "
-            f"{num['torch_cpu_capability']}, NumPy's SIMD {', '.join(num['numpy_simd'])}; "
+            f"({'with' if num['avx512'] else 'without'} AVX-512), torch's kernels: {torch}; "
+            f"NumPy's SIMD: {', '.join(num.get('numpy_simd', [])) or 'not recorded'}; "
             f"numeric variables set: {setting}.",
             ""]
 
