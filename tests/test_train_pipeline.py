@@ -172,7 +172,8 @@ def test_humanlike_warm_start_clones_aimed_swing_with_dagger(tmp_path):
 
     config = load_config("low", None, {**TINY, "player": "humanlike",
                                        "warm_start": {"teacher": "scripted", "decisions": 8192,
-                                                      "epochs": 20, "dagger": 1}})
+                                                      "epochs": 20, "dagger": 1,
+                                                      "rally_dagger": 0}})
     model = build_model(config, tmp_path)
     env = HumanLikeReturnVectorEnv(64, seed=99)
     obs, _ = env.reset(seed=99)
@@ -187,7 +188,7 @@ def test_humanlike_warm_start_clones_aimed_swing_with_dagger(tmp_path):
     clone_only = load_config("low", None, {**TINY, "player": "humanlike", "budget": 0,
                                            "warm_start.decisions": 4096,
                                            "warm_start.epochs": 2, "warm_start.dagger": 0,
-                                           "eval.episodes": 8})
+                                           "warm_start.rally_dagger": 0, "eval.episodes": 8})
     curve = train_stage(clone_only, tmp_path / "clone", progress=True)
     assert curve["steps"] == 0 and curve["final"]["episodes"] == 8
     assert load_policy(tmp_path / "clone" / "policy")(np.zeros((1, 85))).shape == (1, 15)
