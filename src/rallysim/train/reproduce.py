@@ -454,6 +454,8 @@ def summarise(budget: Budget, curves: dict[int, dict[str, Any]], per_seed: dict[
               train_wall: float, total_wall: float, cap: int = PAPER_CAP) -> dict[str, Any]:
     """Pooled and per-seed statistics of every method, the pairwise interval comparisons and
     the targets' checks, as one JSON-ready dict (what ``markdown_report`` renders)."""
+    import torch  # noqa: F401  (loaded, so that describe() records its kernel level)
+
     from rallysim.eval.stats import summarise_rallies
     from rallysim.numerics import describe
 
@@ -620,9 +622,12 @@ def numerics_line(r: dict[str, Any]) -> str:
     if n is None:
         return "Numerics: not recorded (a run from before they were)."
     settings = ", ".join(f"`{k}={v}`" for k, v in n["environment"].items()) or "none set"
+    levels = "".join(f"{name}: {value}; " for name, value in (
+        ("torch's kernels", n.get("torch_cpu_capability")),
+        ("NumPy's SIMD", ", ".join(n.get("numpy_simd", [])))) if value)
     return (f"Numerics: CPU {n['cpu']} ({'with' if n['avx512'] else 'without'} AVX-512); "
-            f"{'pinned' if n['pinned'] else 'not pinned'} (`rallysim.numerics.PINNED`); "
-            f"variables: {settings}.")
+            f"{levels}{'pinned' if n['pinned'] else 'not pinned'} "
+            f"(`rallysim.numerics.PINNED`); variables: {settings}.")
 
 
 def markdown_report(r: dict[str, Any]) -> str:

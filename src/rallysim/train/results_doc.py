@@ -17,7 +17,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from rallysim.train.reproduce import report_tables
+from rallysim.train.reproduce import numerics_line, report_tables
 from rallysim.train.study_tables import RENDERERS
 
 BLOCK = re.compile(r"(<!-- BEGIN GENERATED: (?P<name>[\w.-]+) -->\n)(?P<body>.*?)"
@@ -43,24 +43,15 @@ def render(results: dict[str, Any]) -> str:
 
 
 def _where_run(results: dict[str, Any]) -> list[str]:
-    """For a HUMAN-LIKE reproduction: the command, the CPU and the numeric settings it ran
-    with (the SIMPLE pages say so in their own words)."""
+    """For a HUMAN-LIKE reproduction: the command and the numerics it ran with (the SIMPLE
+    pages say so in their own words)."""
     if results.get("player") != "humanlike":
         return []
-    b, cap, num = results["budget"], results["cap"], results["numerics"]
+    b, cap = results["budget"], results["cap"]
     command = "rallysim reproduce --player humanlike" + (
         f" --budget {b['name']}" if b["name"] != "default" else "") + (
         f" --cap {cap}" if cap != 50 else "")
-    setting = ", ".join(f"{k}={v}" for k, v in sorted(num["environment"].items())) or "none"
-    # a run whose summary did not load torch recorded no capability: then it is torch's own
-    # choice for the CPU unless ATEN_CPU_CAPABILITY set one
-    torch = num.get("torch_cpu_capability") or num["environment"].get(
-        "ATEN_CPU_CAPABILITY", "torch's default for this CPU")
-    return [f"Command: `{command}`; CPU {num['cpu']} "
-            f"({'with' if num['avx512'] else 'without'} AVX-512), torch's kernels: {torch}; "
-            f"NumPy's SIMD: {', '.join(num.get('numpy_simd', [])) or 'not recorded'}; "
-            f"numeric variables set: {setting}.",
-            ""]
+    return [f"Command: `{command}`; {numerics_line(results)}", ""]
 
 
 def _renderer(kind: str | None) -> Callable[[dict[str, Any]], str]:

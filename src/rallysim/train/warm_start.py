@@ -78,13 +78,9 @@ def teacher_dataset(teacher: Policy, task: CloneTask, n_envs: int, decisions: in
     rewards = np.empty((steps, n_envs))
     weights = np.ones((steps, n_envs, all_act.shape[2]), np.float32)
     dones = np.empty((steps, n_envs), bool)
-    weigh = getattr(teacher, "imitation_weights", None)
     for t in range(steps):
-        act = np.asarray(teacher(obs), np.float32)
+        act, weights[t] = _labels(teacher, obs)
         all_obs[t], all_act[t] = obs, act
-        if weigh is not None:  # per environment (n,) or per action too (n, actions)
-            w = np.asarray(weigh(), np.float32)
-            weights[t] = w[:, None] if w.ndim == 1 else w
         if actor is not None:
             act = np.asarray(actor(obs), np.float32)
         obs, r, term, trunc, _ = env.step(act)
@@ -100,6 +96,19 @@ def teacher_dataset(teacher: Policy, task: CloneTask, n_envs: int, decisions: in
     return all_obs[valid], all_act[valid], returns[valid].astype(np.float32), weights[valid]
 
 
+def _labels(teacher: Policy, obs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The teacher's actions for ``obs`` and their sample weights: those of its
+    ``imitation_weights()`` for this call (per observation, or per observation and action),
+    else all 1."""
+    act = np.asarray(teacher(obs), np.float32)
+    weight = np.ones_like(act)
+    weigh = getattr(teacher, "imitation_weights", None)
+    if weigh is not None:
+        w = np.asarray(weigh(), np.float32)
+        weight[:] = w[:, None] if w.ndim == 1 else w
+    return act, weight
+
+
 class _RallyLabeller:
     """A rally's low level ``(observations, goals) -> actions`` that plays ``actor`` and keeps
     the teacher's label of each decision, in the low-level task's observations. A rally held
@@ -108,18 +117,13 @@ class _RallyLabeller:
 
     def __init__(self, teacher: Policy, actor: Policy, low_observations: Callable) -> None:
         self.teacher, self.actor, self.low_observations = teacher, actor, low_observations
-        self.weigh = getattr(teacher, "imitation_weights", None)
         self.rows: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
         self.kept = 0
         self._last: np.ndarray | None = None
 
     def __call__(self, obs: np.ndarray, goals: np.ndarray) -> np.ndarray:
         low = np.asarray(self.low_observations(obs, goals), np.float32)
-        act = np.asarray(self.teacher(low), np.float32)
-        weight = np.ones_like(act)
-        if self.weigh is not None:
-            w = np.asarray(self.weigh(), np.float32)
-            weight[:] = w[:, None] if w.ndim == 1 else w
+        act, weight = _labels(self.teacher, low)
         moved = (np.ones(len(low), bool) if self._last is None or self._last.shape != low.shape
                  else np.any(low != self._last, axis=1))
         self._last = low
@@ -143,11 +147,10 @@ def rally_dataset(teacher: Policy, task: CloneTask, rows: int, seed: int, actor:
 
     player = get_player(task.player)
     rng = np.random.default_rng(seed)
-    size = max(player.goal.size, 1)
 
     def goals(obs: np.ndarray) -> np.ndarray:
-        drawn = rng.uniform(-spread, spread, (len(obs), size))
-        return player.goal.from_action(drawn if player.goal.size > 1 else drawn[:, 0])
+        return player.goal.from_action(rng.uniform(-spread, spread,
+                                                   (len(obs), *player.goal.shape)))
 
     labeller = _RallyLabeller(teacher, actor, player.low_observations)
     rules = RallyConfig(shuttle=task.shuttle)
