@@ -68,3 +68,16 @@ def test_the_3d_table_matches_its_json():
     # the targets the page reports as met
     assert data["checks"]["every_seed_hrl_mean_at_least_45"]
     assert data["checks"]["hrl_above_monolithic"] and data["checks"]["hrl_above_random"]
+
+
+def test_the_3d_table_at_cap_1000_matches_its_json():
+    """The cap-1,000 evaluation of the same runs: the median target of issue 39, as measured."""
+    doc = HUMANLIKE_DOC.read_text()
+    assert "reproduce_humanlike_cap1000" in blocks(doc)
+    data = json.loads((DATA / "reproduce_humanlike_cap1000.json").read_text())
+    cap50 = json.loads((DATA / "reproduce_humanlike.json").read_text())
+    assert data["cap"] == 1000 and data["budget"] == cap50["budget"]
+    assert "Command: `rallysim reproduce --player humanlike --cap 1000`;" in render(data)
+    assert data["checks"]["hrl_median_at_least_200"]
+    hrl = data["methods"]["HRL"]["mean"]
+    assert f"mean {hrl['value']:.2f} [{hrl['low']:.2f}, {hrl['high']:.2f}]" in doc
