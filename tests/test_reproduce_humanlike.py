@@ -24,7 +24,7 @@ def test_budgets_by_player():
     assert hl.overrides("low")["player"] == "humanlike"
     assert "goals" not in hl.overrides("low")  # (a SIMPLE task setting)
     quick = budget_named("quick", "humanlike").overrides("low")
-    assert quick["warm_start.dagger"] == 0 and quick["warm_start.rally_dagger"] == 2
+    assert quick["warm_start.dagger"] == 0 and quick["warm_start.rally_dagger"] == 4
     with pytest.raises(ValueError, match="no budget 'scratch'; valid: 'default'"):
         budget_named("scratch", "humanlike")
     with pytest.raises(ValueError, match="unknown player"):

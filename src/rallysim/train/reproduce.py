@@ -102,13 +102,13 @@ BUDGETS = {
 }
 # The HUMAN-LIKE reproduction (issue 39): the low level is the clone of AimedSwing with DAgger
 # rounds (configs/low_humanlike.yaml: no PPO after it), the high level trains over it; "quick"
-# clones a quarter of the decisions for two thirds of the epochs and keeps only the rounds in
-# the rally, which the rally needs most (docs/humanlike.md).
+# clones a quarter of the decisions for two thirds of the epochs, then plays all its DAgger
+# rounds in the rally, which the rally needs most (docs/humanlike.md).
 HUMANLIKE_BUDGETS = {
     "default": Budget("default", 0, 32_768, 3, 200, 500, player="humanlike"),
     "quick": Budget("quick", 0, 8_192, 3, 100, 200, player="humanlike",
                     low_extra=(("warm_start.decisions", 131_072), ("warm_start.dagger", 0),
-                               ("warm_start.rally_dagger", 2), ("warm_start.epochs", 20))),
+                               ("warm_start.rally_dagger", 4), ("warm_start.epochs", 20))),
     "smoke": Budget("smoke", 0, 256, 2, 8, 16, player="humanlike",
                     low_extra=(("warm_start.decisions", 8_192), ("warm_start.dagger", 0),
                                ("warm_start.rally_dagger", 1),
