@@ -126,3 +126,6 @@ def test_the_readme_3d_results_are_the_committed_json():
         assert shown in text, shown
     worst = min(v["mean"]["value"] for v in data["methods_per_seed"]["HRL"].values())
     assert worst > 48  # "every seed's hierarchy above 48 hits"
+    long = json.loads((DATA / "reproduce_humanlike_cap1000.json").read_text())
+    assert long["cap"] == 1000 and long["methods"]["HRL"]["median"]["value"] == 1000
+    assert "the median HRL rally of those runs is 1,000" in text

@@ -81,3 +81,15 @@ def test_the_3d_table_at_cap_1000_matches_its_json():
     assert data["checks"]["hrl_median_at_least_200"]
     hrl = data["methods"]["HRL"]["mean"]
     assert f"mean {hrl['value']:.2f} [{hrl['low']:.2f}, {hrl['high']:.2f}]" in doc
+
+
+def test_the_quick_3d_table_matches_its_json():
+    """The HUMAN-LIKE ``quick`` budget's table: the comparison it exists to show, as measured."""
+    doc = HUMANLIKE_DOC.read_text()
+    assert "reproduce_humanlike_quick" in blocks(doc)
+    data = json.loads((DATA / "reproduce_humanlike_quick.json").read_text())
+    assert data["budget"]["name"] == "quick" and data["cap"] == 50
+    assert data["checks"]["hrl_above_monolithic"] and data["checks"]["hrl_above_random"]
+    hrl = data["methods"]["HRL"]["mean"]
+    assert f"HRL {hrl['value']:.2f} [{hrl['low']:.2f}, {hrl['high']:.2f}]" in doc
+    assert data["wall_s"]["total"] < 20 * 60
