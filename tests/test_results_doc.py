@@ -89,7 +89,30 @@ def test_the_quick_3d_table_matches_its_json():
     assert "reproduce_humanlike_quick" in blocks(doc)
     data = json.loads((DATA / "reproduce_humanlike_quick.json").read_text())
     assert data["budget"]["name"] == "quick" and data["cap"] == 50
+    from rallysim.train.reproduce import HUMANLIKE_BUDGETS
+
+    assert data["budget"] == HUMANLIKE_BUDGETS["quick"].settings()  # today's recipe's run
     assert data["checks"]["hrl_above_monolithic"] and data["checks"]["hrl_above_random"]
     hrl = data["methods"]["HRL"]["mean"]
     assert f"HRL {hrl['value']:.2f} [{hrl['low']:.2f}, {hrl['high']:.2f}]" in doc
     assert data["wall_s"]["total"] < 20 * 60
+
+
+def test_the_train_speed_before_and_after_matches_its_json():
+    """docs/benchmarks.md's training before/after (issue 37): the medians of the runs on disk."""
+    import statistics
+
+    data = json.loads((DATA / "issue37_train_speed.json").read_text())
+    text = (ROOT / "docs" / "benchmarks.md").read_text()
+    medians = {}
+    for code in ("before", "after"):
+        runs = [r for r in data["runs"] if r["code"] == code]
+        assert len(runs) == 4
+        raw = [r["raw_env_decisions_per_s"] for r in runs if "raw_env_note" not in r]
+        medians[code] = {"raw": statistics.median(raw), **{
+            s: statistics.median(r[s]["player_decisions_per_s"] for r in runs)
+            for s in ("low", "high", "mono")}}
+    for key in ("raw", "low", "high", "mono"):
+        before, after = medians["before"][key], medians["after"][key]
+        assert f"| {before:,.0f} " in text and f"| {after:,.0f} " in text, key
+        assert f"| {after / before:.2f}x |" in text, key
