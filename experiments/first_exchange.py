@@ -1,7 +1,7 @@
 """Where a trained hierarchy's rallies are lost, and whether the lost shots could be met.
 
 For each training seed of a ``rallysim reproduce`` run (``--runs``: its ``runs`` folder), HRL
-plays the evaluation's rallies (the same evaluation seed, ``1_000_000 + 1000 * seed``, capped
+plays the evaluation's rallies (the same evaluation seed, ``reproduce.evaluation_seed``, capped
 at 50 hits) and the study reports:
 
 - the share of rallies lost at 0-1 hits, at 2 hits, at 3-49 hits, and reaching the cap;
@@ -35,6 +35,7 @@ import numpy as np
 
 from rallysim.core.reach import PlayerState, ShotPlanner
 from rallysim.core.tasks.turns import TurnTask
+from rallysim.train.reproduce import evaluation_seed
 
 BASES = (-6.5, -5.5, -4.5, -3.5, -2.7, -2.0, -1.5, -1.0)  # own-frame base x probed
 CAP = 50
@@ -134,7 +135,7 @@ def seed_profile(runs: Path | None, seed: int, rallies: int, goal: float) -> dic
         raise ValueError("--runs is needed for trained seeds")
     low = resolve(str(runs / f"low_seed{seed}" / "policy"), "rally_low")
     high = resolve(str(runs / f"high_seed{seed}" / "policy"), "high")
-    return profile(play(low, high, rallies, 1_000_000 + 1000 * seed))
+    return profile(play(low, high, rallies, evaluation_seed(seed)))
 
 
 def table(profiles: dict[int, dict[str, Any]]) -> list[str]:

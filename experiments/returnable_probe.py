@@ -31,9 +31,6 @@ from rallysim.core.reach import PlayerState, ShotPlanner
 from rallysim.core.simple_obs import PLAYER_OBS_SIZE
 from rallysim.core.tasks.simple_return import ReturnTask
 
-CAP = 50
-RALLIES = 200
-
 
 def add_returnable_bonus(bonus: float) -> None:
     """Patch ``ReturnTask.outcome``: ``bonus`` more reward for a hit whose shot the opponent
@@ -64,9 +61,9 @@ def add_returnable_bonus(bonus: float) -> None:
 
 
 def run_seed(seed: int, out: Path) -> dict[str, Any]:
-    from rallysim.eval.rally_eval import rally_lengths_turns, rules_for_cap
+    from rallysim.eval.rally_eval import PAPER_CAP, rally_lengths_turns, rules_for_cap
     from rallysim.policies.registry import resolve
-    from rallysim.train.reproduce import BUDGETS, train_seed_stage
+    from rallysim.train.reproduce import BUDGETS, evaluation_seed, train_seed_stage
 
     budget, curves = BUDGETS["default"], {}
     t = time.perf_counter()
@@ -75,8 +72,8 @@ def run_seed(seed: int, out: Path) -> dict[str, Any]:
     runs = out / "runs"
     low = resolve(str(runs / f"low_seed{seed}" / "policy"), "rally_low")
     high = resolve(str(runs / f"high_seed{seed}" / "policy"), "high")
-    lengths = rally_lengths_turns(high, low, RALLIES, 1_000_000 + 1000 * seed,
-                                  rules_for_cap(CAP))
+    lengths = rally_lengths_turns(high, low, budget.rallies, evaluation_seed(seed),
+                                  rules_for_cap(PAPER_CAP))
     return {"seed": seed, "hrl_mean": float(np.mean(lengths)), "lengths": lengths.tolist(),
             "low_final": curves["low"]["final"], "high_final": curves["high"]["final"],
             "wall_s": round(time.perf_counter() - t, 1)}

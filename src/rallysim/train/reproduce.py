@@ -209,6 +209,12 @@ def train_seed_stage(seed: int, stage: str, budget: Budget, out: Path,
     return curve
 
 
+def evaluation_seed(seed: int) -> int:
+    """The evaluation seed of training seed ``seed``: unseen by training, whose envs use
+    ``seed + i``."""
+    return 1_000_000 + 1000 * seed
+
+
 def evaluate_seed(seed: int, out: Path, rallies: int, low_episodes: int,
                   cap: int = PAPER_CAP, beat: Heartbeat | None = None,
                   player: str = "simple") -> dict[str, Any]:
@@ -224,7 +230,7 @@ def evaluate_seed(seed: int, out: Path, rallies: int, low_episodes: int,
     low = resolve(low_prefix, "rally_low", player)
     high = resolve(str(runs / f"high_seed{seed}" / "policy"), "high", player)
     mono = load_policy(runs / f"mono_seed{seed}" / "policy")
-    eval_seed = 1_000_000 + 1000 * seed  # unseen by training (its envs use seed + i)
+    eval_seed = evaluation_seed(seed)
     lengths = play_methods(high, low, mono, rallies, eval_seed, rules_for_cap(cap), beat,
                            f"seed {seed} ", player=player)
     return {"lengths": {k: v.tolist() for k, v in lengths.items()},

@@ -17,6 +17,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from rallysim.eval.rally_eval import PAPER_CAP
 from rallysim.train.reproduce import numerics_line, report_tables
 from rallysim.train.study_tables import RENDERERS
 
@@ -50,7 +51,7 @@ def _where_run(results: dict[str, Any]) -> list[str]:
     b, cap = results["budget"], results["cap"]
     command = "rallysim reproduce --player humanlike" + (
         f" --budget {b['name']}" if b["name"] != "default" else "") + (
-        f" --cap {cap}" if cap != 50 else "")
+        f" --cap {cap}" if cap != PAPER_CAP else "")
     return [f"Command: `{command}`; {numerics_line(results)}", ""]
 
 
