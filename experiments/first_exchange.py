@@ -7,11 +7,11 @@ at 50 hits) and the study reports:
 - the share of rallies lost at 0-1 hits, at 2 hits, at 3-49 hits, and reaching the cap;
 - at the start of the turn that lost the rally, whether ``ShotPlanner`` (the scripted
   controller's reach model) finds a full-speed meeting with the incoming shuttle from where
-  the player stood, and from the best of ``BASES`` (eight base positions across the court);
-  the same for the rallies that went on past that turn;
+  the player stood, and from the best of ``rallysim.core.reach.BASES`` (eight base positions
+  across the court); the same for the rallies that went on past that turn;
 - whether the player who made the lost shot had another: at the start of its turn, a
   full-speed meeting (``ShotPlanner``) whose shot, at that meeting's elevation, the next player
-  could meet from one of ``BASES`` (the planner's model: full-speed swings only);
+  could meet from one of ``reach.BASES`` (the planner's model: full-speed swings only);
 - where the waiting player stands when its turn begins (the turn player's base x at the start
   of turns 1-11, median, own frame).
 
@@ -37,7 +37,6 @@ from rallysim.core.reach import PlayerState, ShotPlanner
 from rallysim.core.tasks.turns import TurnTask
 from rallysim.train.reproduce import evaluation_seed
 
-BASES = (-6.5, -5.5, -4.5, -3.5, -2.7, -2.0, -1.5, -1.0)  # own-frame base x probed
 CAP = 50
 WAIT_TURNS = 11  # turns 1..11: where the waiting player stands when its turn begins
 
@@ -69,18 +68,6 @@ def play(low: Any, high: Any, rallies: int, seed: int, goal: float = 3.5) -> dic
     return {"lengths": lengths, "states": states, "waiting": np.concatenate(waiting)}
 
 
-def meetable_from_any_base(planner: ShotPlanner, pos: np.ndarray, vel: np.ndarray
-                           ) -> np.ndarray:
-    """Whether shuttles at ``pos`` with ``vel`` (N, 3; the receiver's own frame) can be met at
-    full speed from one of ``BASES``."""
-    n = len(pos)
-    out = np.zeros(n, bool)
-    for base in BASES:
-        state = PlayerState(base_x=np.full(n, base), theta=np.zeros(n), pos=pos, vel=vel)
-        out |= planner.meetings(state).feasible.any(axis=1)
-    return out
-
-
 def another_shot(planner: ShotPlanner, state: PlayerState) -> np.ndarray:
     """Whether each hitter of ``state`` (at the start of its turn) has a full-speed meeting
     whose shot lands beyond the net and can be met by the next player from some base."""
@@ -93,7 +80,7 @@ def another_shot(planner: ShotPlanner, state: PlayerState) -> np.ndarray:
         speed = planner.speed * np.array([-np.cos(elevation), 0.0, np.sin(elevation)])
         vel = np.broadcast_to(speed, (n, 3))
         usable = m.feasible[:, e] & (m.depth[:, e] > 0.0)
-        found |= usable & meetable_from_any_base(planner, pos, vel)
+        found |= usable & planner.meetable(pos, vel)
     return found
 
 
@@ -109,7 +96,7 @@ def profile(played: dict[str, Any]) -> dict[str, Any]:
     state = played["states"][lost_at]
     lost, kept = lengths == lost_at, lengths > lost_at
     here = planner.meetings(state).feasible.any(axis=1)  # from where the player stood
-    best = meetable_from_any_base(planner, state.pos, state.vel)
+    best = planner.meetable(state.pos, state.vel)
     other = another_shot(planner, played["states"][lost_at - 1])
     out["lost_turn"] = {
         "hits": lost_at, "rallies_lost": int(lost.sum()),

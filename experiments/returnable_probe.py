@@ -3,17 +3,17 @@
 The 10-seed study loses its rallies in the first exchange, on returns of deep serves that no
 base position meets (docs/research-log/reproduce.md); for up to two thirds of those shots the
 hitter had one the opponent could have met. The SIMPLE low-level task scores only the landing's
-depth. This probe adds ``--bonus`` to the reward of the decision in which the player hits, when
-``ShotPlanner`` finds that the shot, seen from the opponent's side of the net, can be met at full
-speed from one of ``first_exchange.BASES``. Everything else is the default reproduction's: the
-low stage (the clone of the scripted controller, then PPO), the high stage over it, and HRL's
-200 evaluation rallies at cap 50 from the reproduction's evaluation seed, so that each seed's
-mean compares with the same seed of ``rallysim reproduce --seeds 10``.
+depth. This probe trains the low level with the task's ``returnable`` reward (``--bonus``, on
+the decision in which the player hits, when ``ShotPlanner.returnable`` finds that the opponent
+can meet the shot at full speed from some base position). Everything else is the default
+reproduction's: the low stage (the clone of the scripted controller, then PPO), the high stage
+over it, and HRL's 200 evaluation rallies at cap 50 from the reproduction's evaluation seed, so
+that each seed's mean compares with the same seed of ``rallysim reproduce --seeds 10``.
 
     python -m experiments.returnable_probe --out probe --seeds 0,1,2,3,4 --bonus 0.5
 
 Each seed's result is written to ``OUT/seed{N}.json`` as soon as it is played; a rerun skips
-the seeds already there. Not the packaged task: a probe outside the package's env versions.
+the seeds already there.
 """
 
 from __future__ import annotations
@@ -21,51 +21,21 @@ from __future__ import annotations
 import argparse
 import json
 import time
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from experiments.first_exchange import meetable_from_any_base
-from rallysim.core.reach import PlayerState, ShotPlanner
-from rallysim.core.simple_obs import PLAYER_OBS_SIZE
-from rallysim.core.tasks.simple_return import ReturnTask
 
-
-def add_returnable_bonus(bonus: float) -> None:
-    """Patch ``ReturnTask.outcome``: ``bonus`` more reward for a hit whose shot the opponent
-    can meet (info ``reward_returnable``, ``returnable``)."""
-    planner = ShotPlanner()
-    plain = ReturnTask.outcome
-
-    def outcome(self: ReturnTask, actions: np.ndarray) -> tuple[Any, Any, Any, dict[str, Any]]:
-        reward, terminated, truncated, info = plain(self, actions)
-        hit = np.atleast_1d(np.asarray(info["hit"], bool))
-        ok = np.zeros(hit.shape, bool)
-        if hit.any():
-            idx = np.flatnonzero(hit)
-            state = PlayerState.from_observations(self.observe()[idx, :PLAYER_OBS_SIZE])
-            pos, vel = state.pos.copy(), state.vel.copy()
-            pos[:, :2] *= -1.0  # the opponent's own frame: turned about the vertical
-            vel[:, :2] *= -1.0
-            ok[idx] = meetable_from_any_base(planner, pos, vel)
-        extra = bonus * ok
-        if np.ndim(reward) == 0:
-            reward, extra, ok = reward + float(extra[0]), float(extra[0]), bool(ok[0])
-        else:
-            reward = reward + extra
-        info["reward_returnable"], info["returnable"] = extra, ok
-        return reward, terminated, truncated, info
-
-    ReturnTask.outcome = outcome  # type: ignore[method-assign]
-
-
-def run_seed(seed: int, out: Path) -> dict[str, Any]:
+def run_seed(seed: int, out: Path, bonus: float, ready: float = 0.0) -> dict[str, Any]:
     from rallysim.eval.rally_eval import PAPER_CAP, rally_lengths_turns, rules_for_cap
     from rallysim.policies.registry import resolve
     from rallysim.train.reproduce import BUDGETS, evaluation_seed, train_seed_stage
 
-    budget, curves = BUDGETS["default"], {}
+    default, curves = BUDGETS["default"], {}
+    extra = (("returnable", bonus),) + ((("ready", ready),) if ready else ())
+    budget = replace(default, low_extra=(*default.low_extra, *extra))
     t = time.perf_counter()
     for stage in ("low", "high"):
         curves[stage] = train_seed_stage(seed, stage, budget, out, curves)
@@ -84,14 +54,16 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--out", type=Path, required=True)
     parser.add_argument("--seeds", default="0,1,2,3,4,5,6,7,8,9")
     parser.add_argument("--bonus", type=float, default=0.5)
+    parser.add_argument("--ready", type=float, default=0.0,
+                        help="the task's ready reward too (0: off)")
     args = parser.parse_args(argv)
-    add_returnable_bonus(args.bonus)
     args.out.mkdir(parents=True, exist_ok=True)
     for seed in (int(s) for s in args.seeds.split(",")):
         path = args.out / f"seed{seed}.json"
         if path.exists():
             continue
-        result = {"bonus": args.bonus, **run_seed(seed, args.out)}
+        result = {"bonus": args.bonus, "ready": args.ready,
+                  **run_seed(seed, args.out, args.bonus, args.ready)}
         path.write_text(json.dumps(result, indent=1))
         print(f"seed {seed}: HRL {result['hrl_mean']:.2f} ({result['wall_s']:.0f} s)",
               flush=True)

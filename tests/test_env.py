@@ -159,6 +159,10 @@ def test_reward_terms_sum_to_the_reward_in_both_tasks():
 
     cases = ((SimpleReturnVectorEnv(16, seed=0), ScriptedController().act_return,
               ("reward_shaping", "reward_hit", "reward_landing")),
+             (SimpleReturnVectorEnv(16, seed=0, returnable=0.5, ready=0.5),
+              ScriptedController().act_return, ("reward_shaping", "reward_hit",
+                                                 "reward_landing", "reward_returnable",
+                                                 "reward_ready")),
              (HumanLikeReturnVectorEnv(16, seed=0), HUMANLIKE.scripted_task_low(),
               ("reward_hit", "reward_velocity")))
     for env, policy, keys in cases:
@@ -170,6 +174,76 @@ def test_reward_terms_sum_to_the_reward_in_both_tasks():
             for k in keys:
                 totals[k] += float(np.abs(info[k]).sum())
         assert all(v > 0 for v in totals.values()), totals
+
+
+def test_returnable_rewards_a_hit_the_opponent_can_meet():
+    """``returnable`` adds its reward on exactly the hits whose shot ``ShotPlanner`` says the
+    opponent can meet, and changes nothing else: the same play without it gets the same
+    trajectory and that much less reward; the single env seeded s + i replays slot i."""
+    from rallysim.core.reach import ShotPlanner
+    from rallysim.core.simple_obs import PLAYER_OBS_SIZE
+
+    act, planner = ScriptedController().act_return, ShotPlanner()
+    n, steps = 24, 60
+    env = SimpleReturnVectorEnv(n, returnable=0.5, autoreset_mode="same_step")
+    plain = SimpleReturnVectorEnv(n, autoreset_mode="same_step")
+    obs, _ = env.reset(seed=5)
+    plain_obs, _ = plain.reset(seed=5)
+    actions, rewards, hits, returnable = [], [], 0, 0
+    for _ in range(steps):
+        a = act(obs)
+        obs, r, term, trunc, info = env.step(a)
+        plain_obs, plain_r, _, _, plain_info = plain.step(a)
+        assert np.array_equal(obs, plain_obs) and "reward_returnable" not in plain_info
+        assert np.array_equal(plain_r + info["reward_returnable"], r)
+        hit = info["hit"]
+        assert not info["reward_returnable"][~hit].any()
+        if hit.any():  # where no episode ended, obs is the state just after the hit
+            live = hit & ~term & ~trunc
+            ok = planner.returnable(obs[live, :PLAYER_OBS_SIZE])
+            assert np.array_equal(info["reward_returnable"][live], 0.5 * ok)
+        hits += int(hit.sum())
+        returnable += int(np.count_nonzero(info["reward_returnable"]))
+        actions.append(a)
+        rewards.append(r)
+    assert hits >= n and 0 < returnable < hits  # both kinds of shot occur
+    for i in range(3):
+        single = SimpleReturnEnv(returnable=0.5)
+        single.reset(seed=5 + i)
+        for k in range(steps):
+            _, r, term, trunc, info = single.step(actions[k][i])
+            assert r == rewards[k][i]
+            assert info["reward_returnable"] in (0.0, 0.5)
+            if term or trunc:
+                break
+
+
+def test_ready_rewards_standing_mid_range_when_the_shot_lands():
+    """``ready`` pays at the landing that ends an episode in which the player hit, more the
+    nearer its base stands to -3.75 m, and nothing otherwise."""
+    env = SimpleReturnVectorEnv(24, ready=0.5, autoreset_mode="same_step")
+    obs, _ = env.reset(seed=3)
+    act, paid, unpaid_landings = ScriptedController().act_return, [], 0
+    for _ in range(60):
+        hit_before = env.task.game.has_hit[:, 0].copy()
+        base_before = env.task.game.bodies.base_x[:, 0].copy()
+        obs, _, term, _, info = env.step(act(obs))
+        ready = info["reward_ready"]
+        assert not ready[~term].any()
+        for i in np.flatnonzero(term):
+            if hit_before[i] or info["hit"][i]:
+                paid.append(ready[i])
+                assert 0.0 < ready[i] <= 0.5
+                # the base moves at most 5 m/s: 0.5 m in the last decision
+                lo = 0.5 * np.exp(-0.5 * (abs(base_before[i] + 3.75) + 0.5))
+                assert ready[i] >= lo
+            else:
+                unpaid_landings += 1
+                assert ready[i] == 0.0
+    assert len(paid) >= 10 and unpaid_landings >= 1
+    single = SimpleReturnEnv(ready=0.5)
+    single.reset(seed=0, options={"base_x": -3.75})
+    assert single.task.ready == 0.5 and "reward_ready" in single.step([0, 0, 0])[4]
 
 
 def test_truncation_at_max_decisions():

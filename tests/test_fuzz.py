@@ -255,6 +255,8 @@ ENV_ARGS: list[tuple[Callable[..., Any], dict[str, Any]]] = [
     *[(SimpleReturnEnv, {"target_depth_range": v}) for v in (None, ("3", "4"), (3.0,),
                                                             (3.0, 4.0, 5.0), (np.nan, 4.0))],
     *[(SimpleReturnEnv, {"keep_bodies": v}) for v in ("no", 1, None)],
+    *[(make, {key: v}) for make in (SimpleReturnEnv, SimpleReturnVectorEnv)
+      for key in ("returnable", "ready") for v in (-0.5, np.inf, np.nan, "0.5", True, None)],
     *[(lambda **kw: SimpleReturnVectorEnv(2, **kw), {"render_envs": v}) for v in (0, -1, "x")],
 ]
 CONSTRUCTOR_CASES = [(name, cfg) for name in CONSTRUCTORS for cfg in BAD_CONFIGS]

@@ -195,3 +195,24 @@ def test_a_short_behaviour_clone_moves_the_actor_toward_the_teacher(tmp_path):
     assert 0.5 * 16384 < result["samples"] <= 16384
     assert np.isfinite(result["actor_mse"]) and np.isfinite(result["critic_mse"])
     assert error() < 0.5 * before  # 0.81 before, 0.31 after
+
+
+def test_the_warm_start_fits_its_critic_to_the_task_ppo_trains_on():
+    """The SIMPLE task's reward options reach the warm start's env: the clone's critic is fitted
+    to the returns of the task PPO then trains on (returnable adds to them), and the clone's
+    labels and observations are the same either way."""
+    from rallysim.policies import ScriptedController
+    from rallysim.train.stages.low import LOW
+    from rallysim.train.warm_start import teacher_dataset
+
+    plain_cfg = load_config("low", None, {})
+    cfg = load_config("low", None, {"returnable": 0.5, "ready": 0.25})
+    assert LOW.clone_task(plain_cfg).options == {}
+    assert LOW.clone_task(cfg).options == {"returnable": 0.5, "ready": 0.25}
+    assert LOW.make_env(cfg).venv.task.returnable == 0.5  # what PPO trains on
+    teacher = ScriptedController().act_return
+    plain = teacher_dataset(teacher, LOW.clone_task(plain_cfg), 16, 1_024, 0.99, seed=3)
+    extra = teacher_dataset(teacher, LOW.clone_task(cfg), 16, 1_024, 0.99, seed=3)
+    assert np.array_equal(plain[0], extra[0]) and np.array_equal(plain[1], extra[1])
+    gain = extra[2] - plain[2]
+    assert gain.min() >= 0.0 and gain.mean() > 0.2

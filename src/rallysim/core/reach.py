@@ -29,6 +29,8 @@ from rallysim.core.simple_obs import (
 )
 
 BASE_X = PLAYER_OBS["base_position"].start
+# base x (own frame, m) across the base's range [-6.5, -1.0] from which a player may meet a shot
+BASES = (-6.5, -5.5, -4.5, -3.5, -2.7, -2.0, -1.5, -1.0)
 
 
 @dataclass(frozen=True)
@@ -145,6 +147,25 @@ class ShotPlanner:
         return Meetings(t_hit=t_hit, x_hit=x_hit, base_needed=base_needed,
                         usable=has & (x_hit < 0.0), makeable=in_range & in_time,
                         depth=x_hit + self.range[None, :])
+
+    def meetable(self, pos: np.ndarray, vel: np.ndarray) -> np.ndarray:
+        """Whether shuttles at ``pos`` with ``vel`` (N, 3; the receiver's own frame) can be met at
+        full speed from one of ``BASES``, (N,)."""
+        n = len(pos)
+        out = np.zeros(n, bool)
+        for base in BASES:
+            state = PlayerState(base_x=np.full(n, base), theta=np.zeros(n), pos=pos, vel=vel)
+            out |= self.meetings(state).feasible.any(axis=1)
+        return out
+
+    def returnable(self, observations: np.ndarray) -> np.ndarray:
+        """Whether the shuttles N players have just hit (their observations) can be met by the
+        opponent, seen from its own frame (turned about the vertical), (N,)."""
+        state = PlayerState.from_observations(observations)
+        pos, vel = state.pos.copy(), state.vel.copy()
+        pos[:, :2] *= -1.0
+        vel[:, :2] *= -1.0
+        return self.meetable(pos, vel)
 
     def reachable_depths(self, observations: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(lo, hi), (N,): the shallowest and deepest landing of a full-speed shot from any

@@ -42,6 +42,8 @@ Terminates when the shuttle's centre drops below z = 0; truncates after 1000 dec
 | ``max_decisions`` | ``1000`` | truncation |
 | ``keep_bodies`` | ``False`` | ``True``: like the original builds, a new episode starts with the player where the last one left it (the first from a random start); reset options still place it |
 | ``goals`` | ``"uniform"`` | ``"uniform"``: d* ~ U[range]; ``"reachable"`` (the default of ``-v1``): d* uniform over the depths a full-speed shot from a meeting the player can make reaches (``rallysim.core.reach.ShotPlanner``, the paper flight model), within the range: the nearest end of the range when the serve reaches none of it, the whole range when it reaches no depth |
+| ``returnable`` | ``0.0`` | not the paper's: this much more reward for a hit whose shot the opponent could meet at full speed from some base position (``rallysim.core.reach.ShotPlanner.returnable``, the paper flight model); ``info`` then also gives ``reward_returnable`` |
+| ``ready`` | ``0.0`` | not the paper's: at the landing after the player's hit, this much times exp(-0.5 d) more reward, d the base's distance from the middle of its range (-3.75 m), where it can reach either end soonest; ``info`` then also gives ``reward_ready`` |
 | ``incoming`` | ``"serve"`` | what comes over: the machine serve (the paper); ``"rally"``: a shot drawn from 4,096 recorded rally shots (scripted players aiming at 2-6 m); ``"mixed"``: either, half the time each |
 
 ``reset(options=...)`` accepts ``target_depth`` (metres, in [2, 6]), ``base_x`` (metres, in
@@ -51,11 +53,11 @@ value per environment.
 ## ``info``
 ``hit``, ``racket_speed`` (m/s at the hit, else 0), ``net_touch``, ``landed``,
 ``landing_point`` (world, m), ``landing_depth`` (m beyond the net), ``landing_error``
-(abs(depth - d*)), ``landed_in``, ``target_depth``, and the reward's three terms every step,
-which sum to it: ``reward_shaping``, ``reward_hit``, ``reward_landing``. The single env gives
-``racket_speed`` only on a hit and the landing keys only at the landing; the vector env gives
-arrays for all keys, with NaN where a value does not apply and Gymnasium's ``_key`` masks
-marking where it does.
+(abs(depth - d*)), ``landed_in``, ``target_depth``, and the reward's terms every step, which
+sum to it: ``reward_shaping``, ``reward_hit``, ``reward_landing`` (and ``reward_returnable``,
+``reward_ready`` when those options are on). The single env gives ``racket_speed`` only on a hit and the landing
+keys only at the landing; the vector env gives arrays for all keys, with NaN where a value does
+not apply and Gymnasium's ``_key`` masks marking where it does.
 
 ## Version history
 - v1: ``goals="reachable"``. Over 1,000 fresh serves only 39 % of v0's U[2, 6] m goals can be
@@ -104,10 +106,12 @@ class SimpleReturnEnv(TaskEnv):
                  target_depth_range: tuple[float, float] = TARGET_DEPTH_RANGE,
                  max_decisions: int = MAX_DECISIONS, render_mode: str | None = None,
                  incoming: str = "serve", keep_bodies: bool = False,
-                 goals: str = "uniform", **unknown: Any) -> None:
+                 goals: str = "uniform", returnable: float = 0.0, ready: float = 0.0,
+                 **unknown: Any) -> None:
         check_keywords(unknown, keyword_names(SimpleReturnEnv.__init__))
         task = ReturnTask(1, shuttle, None, target_depth_range, max_decisions, incoming,
-                          keep_bodies, goals)
+                          keep_bodies, goals, returnable, ready)
+        self._info_keys = (*self._info_keys, *task.extra_reward_keys)
         self._init_task(task, OBS_SIZE, ACTION_SIZE, render_mode, {})
 
     def _frame(self, view: EnvView, env: int) -> np.ndarray | None:
@@ -138,11 +142,12 @@ class SimpleReturnVectorEnv(TaskVectorEnv):
                  max_decisions: int = MAX_DECISIONS, autoreset_mode: str = "next_step",
                  render_mode: str | None = None, seed: int | None = None,
                  render_envs: int = 1, incoming: str = "serve",
-                 keep_bodies: bool = False, goals: str = "uniform", **unknown: Any) -> None:
+                 keep_bodies: bool = False, goals: str = "uniform", returnable: float = 0.0,
+                 ready: float = 0.0, **unknown: Any) -> None:
         check_keywords(unknown, keyword_names(SimpleReturnVectorEnv.__init__))
         num_envs = positive_int(num_envs, "num_envs")
         task = ReturnTask(num_envs, shuttle, seed, target_depth_range, max_decisions,
-                          incoming, keep_bodies, goals)
+                          incoming, keep_bodies, goals, returnable, ready)
         self._init_task(num_envs, autoreset_mode, task, _spaces(), render_mode, render_envs, {})
 
     def _frame(self, view: EnvView, env: int) -> np.ndarray | None:

@@ -79,6 +79,10 @@ class TrainConfig:
     keep_bodies: bool = False
     # low stage, SIMPLE: the goals drawn ("uniform": SimpleReturn-v0's; "reachable": -v1's)
     goals: str = "uniform"
+    # low stage, SIMPLE: the task's rewards for a shot the opponent can meet and for standing
+    # ready when it lands (0: the paper's task)
+    returnable: float = 0.0
+    ready: float = 0.0
     # high stage: rallies per goal of the start's goal sweep (0: none, PPO starts at the
     # centre of the goal range), over goal_sweep_points goals per goal axis
     # (rallysim.train.goal_sweep)
@@ -170,7 +174,8 @@ _CHOICES: dict[str, tuple[str, ...]] = {
 }
 _BOUNDS: dict[str, Bound] = {"seed": SEED, "torch_threads": at_least(1),
                              "checkpoint_every": at_least(1), "goal_sweep": at_least(0),
-                             "goal_sweep_points": at_least(2)}
+                             "goal_sweep_points": at_least(2), "returnable": at_least(0.0),
+                             "ready": at_least(0.0)}
 _TOP = tuple(f.name for f in fields(TrainConfig) if f.name not in SECTIONS)
 
 # every setting's dotted name -> its kind (values.kind_of), generated from the dataclasses

@@ -60,7 +60,10 @@ class CloneTask:
     player: str  # recorded with a saved warm start
     shuttle: str
     seed: int  # round k's episodes are drawn from seed + 7919 k
-    make_env: Callable[[int, str], Any]  # (environments, shuttle) -> same-step vector env
+    make_env: Callable[..., Any]  # (environments, shuttle, **options) -> same-step vector env
+    # the task's reward options (the SIMPLE task's returnable and ready), so that the critic
+    # the clone fits is the one of the task PPO trains on
+    options: dict[str, Any] = field(default_factory=dict)
 
 
 def teacher_dataset(teacher: Policy, task: CloneTask, n_envs: int, decisions: int, gamma: float,
@@ -70,7 +73,7 @@ def teacher_dataset(teacher: Policy, task: CloneTask, n_envs: int, decisions: in
     played by ``actor`` (default: the teacher itself) in ``task``'s env, ``n_envs`` at once,
     from ``seed``. A teacher with ``imitation_weights()`` weighs its last call's actions (per
     environment, or per environment and action); else all weigh 1."""
-    env = task.make_env(n_envs, task.shuttle)
+    env = task.make_env(n_envs, task.shuttle, **task.options)
     obs, _ = env.reset(seed=seed)
     steps = max(1, decisions // n_envs)
     all_obs = np.empty((steps, n_envs, obs.shape[1]), np.float32)
@@ -383,6 +386,8 @@ def behaviour_clone(model: PPO, teacher: Policy, settings: WarmStartSettings, ta
                   **checkpoint.extra}
         if settings.rally_dagger:  # absent otherwise, so that earlier warm starts resume
             record.update(rally_rounds=settings.rally_dagger, rally_spread=settings.rally_spread)
+        if task.options:  # likewise
+            record["task_options"] = dict(task.options)
         store = _Store(checkpoint, record, policy, optimiser, gen)
         restored = store.restore()
         if restored is not None:

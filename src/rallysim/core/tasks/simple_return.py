@@ -44,11 +44,15 @@ class ReturnTask:
     def __init__(self, num_envs: int, shuttle: str = "paper", seed: int | None = None,
                  target_depth_range: tuple[float, float] = TARGET_DEPTH_RANGE,
                  max_decisions: int = MAX_DECISIONS, incoming: str = "serve",
-                 keep_bodies: bool = False, goals: str = "uniform") -> None:
+                 keep_bodies: bool = False, goals: str = "uniform",
+                 returnable: float = 0.0, ready: float = 0.0) -> None:
         if goals not in GOALS:
             raise ValueError(f"unknown goals {goals!r}; valid: {', '.join(map(repr, GOALS))}")
         self.goals = goals
-        self._planner = ShotPlanner() if goals == "reachable" else None
+        self.returnable = _weight(returnable, "returnable")
+        self.ready = _weight(ready, "ready")
+        self._planner = (ShotPlanner() if goals == "reachable" or self.returnable > 0.0
+                         else None)
         if incoming not in INCOMING:
             raise ValueError(f"unknown incoming {incoming!r}; valid: "
                              f"{', '.join(map(repr, INCOMING))}")
@@ -72,6 +76,12 @@ class ReturnTask:
         self.goal = np.zeros(num_envs)
         self.elapsed = np.zeros(num_envs, np.int64)
 
+    @property
+    def extra_reward_keys(self) -> tuple[str, ...]:
+        """The info keys of the optional reward terms this task gives."""
+        return tuple(f"reward_{name}" for name in ("returnable", "ready")
+                     if getattr(self, name) > 0.0)
+
     def reset(self, envs: np.ndarray, options: dict[str, Any] | None = None) -> None:
         envs = np.asarray(envs, np.int64)
         b, limit = self.game.bodies, self.game.bodies.limit
@@ -93,7 +103,7 @@ class ReturnTask:
             b.omega[carry, 0] = omega
         self._started[envs] = True
         # (drawn even when the option gives the goal, so that the stream does not shift)
-        if self._planner is None:
+        if self.goals == "uniform":
             drawn = np.array([r.uniform(*self.depth_range) for r in rngs])
         else:
             u = np.array([r.uniform() for r in rngs])
@@ -157,6 +167,17 @@ class ReturnTask:
             closeness = ops.exp(-R_DIST_RATE * ops.where(landed, error, 0.0))
             landing = ops.where(scored, closeness, 0.0)
             reward = reward + landing
+        extra = ready = None
+        if self.returnable > 0.0:
+            extra = self._returnable_reward(hit)
+            reward = reward + extra
+        if self.ready > 0.0:
+            # after its hit, where the player stands when the shot lands: the middle of the
+            # base's range, from which it reaches either end soonest
+            off = abs(read0(game.bodies.base_x) - 0.5 * sum(game.bodies.base_range))
+            ready = ops.where(landed & read0(game.has_hit),
+                              self.ready * ops.exp(-R_DIST_RATE * off), 0.0)
+            reward = reward + ready
         # (without a landing there is nothing to score: adding 0.0 would not change the
         # reward, which never is -0.0)
         truncated = ops.logical_not(landed) & (elapsed >= self.max_decisions)
@@ -165,7 +186,29 @@ class ReturnTask:
                 "landing_error": error, "landed_in": landed_in, "target_depth": goal,
                 # the reward's terms, which sum to it (Gymnasium's MuJoCo v5 habit)
                 "reward_shaping": shaping, "reward_hit": R_HIT * hit, "reward_landing": landing}
+        if extra is not None:
+            info["reward_returnable"] = extra
+        if ready is not None:
+            info["reward_ready"] = ready
         return reward, landed, truncated, info
+
+    def _returnable_reward(self, hit: Any) -> Any:
+        """``returnable`` for each game whose player has just hit a shot the opponent can meet
+        (``ShotPlanner.returnable``), else 0; a lane of ``game.ops`` like ``hit``."""
+        hits = np.atleast_1d(np.asarray(hit, bool))
+        ok = np.zeros(hits.shape, bool)
+        if hits.any():
+            idx = np.flatnonzero(hits)
+            ok[idx] = self._planner.returnable(self.observe()[idx, :PLAYER_OBS_SIZE])
+        extra = self.returnable * ok
+        return float(extra[0]) if np.ndim(hit) == 0 else extra
+
+
+def _weight(value: Any, name: str) -> float:
+    if (isinstance(value, bool) or not isinstance(value, int | float | np.number)
+            or not 0.0 <= value < np.inf):
+        raise ValueError(f"{name} must be a finite reward >= 0, got {value!r}")
+    return float(value)
 
 
 def approach_counts(trace: GameTrace, scalar: bool) -> tuple[Any, Any]:

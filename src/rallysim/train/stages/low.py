@@ -43,12 +43,14 @@ class LowPlayer:
     evaluate: Callable[[TrainConfig, Policy, int], dict[str, Any]]  # (config, act, episodes)
     headline: Callable[[dict[str, Any]], str]
     teacher: Callable[[str], tuple[Policy, str]]  # shuttle -> (scripted controller, its name)
-    clone_env: Callable[[int, str], Any]  # (envs, shuttle) -> the warm start's vector env
+    # (envs, shuttle, **reward options) -> the warm start's vector env
+    clone_env: Callable[..., Any]
 
 
 def _simple_kwargs(config: TrainConfig) -> dict[str, Any]:
     return {"shuttle": config.shuttle, "incoming": config.incoming,
-            "keep_bodies": config.keep_bodies, "goals": config.goals}
+            "keep_bodies": config.keep_bodies, "goals": config.goals,
+            "returnable": config.returnable, "ready": config.ready}
 
 
 def _simple_evaluate(config: TrainConfig, act: Policy, episodes: int) -> dict[str, Any]:
@@ -72,10 +74,11 @@ def _scripted_controller(shuttle: str) -> tuple[Policy, str]:
     return ScriptedController().act_return, "ScriptedController"
 
 
-def _simple_clone_env(n_envs: int, shuttle: str) -> Any:
+def _simple_clone_env(n_envs: int, shuttle: str, **options: Any) -> Any:
     from rallysim.envs.simple_return_v0 import SimpleReturnVectorEnv
 
-    return SimpleReturnVectorEnv(n_envs, shuttle=shuttle, autoreset_mode="same_step")
+    return SimpleReturnVectorEnv(n_envs, shuttle=shuttle, autoreset_mode="same_step",
+                                 **options)
 
 
 def _humanlike_kwargs(config: TrainConfig) -> dict[str, Any]:
@@ -140,7 +143,8 @@ class LowStage(Stage):
     def env_options(self, config: TrainConfig) -> dict[str, Any]:
         # "env" names the player: the key rallysim.rllib.envs.make_return_env reads
         return {"shuttle": config.shuttle, "env": config.player, "incoming": config.incoming,
-                "keep_bodies": config.keep_bodies, "goals": config.goals}
+                "keep_bodies": config.keep_bodies, "goals": config.goals,
+                "returnable": config.returnable, "ready": config.ready}
 
     def evaluate(self, config: TrainConfig, act: Policy, rallies: int | None = None
                  ) -> dict[str, Any]:
@@ -162,9 +166,11 @@ class LowStage(Stage):
         """Where the warm start's teacher and clone play."""
         from rallysim.train.warm_start import CloneTask
 
+        options = ({k: getattr(config, k) for k in ("returnable", "ready") if getattr(config, k)}
+                   if config.player == "simple" else {})
         return CloneTask(player=config.player, shuttle=config.shuttle,
                          seed=config.seed + CLONE_SEED_OFFSET,
-                         make_env=PLAYERS[config.player].clone_env)
+                         make_env=PLAYERS[config.player].clone_env, options=options)
 
 
 LOW = LowStage()
