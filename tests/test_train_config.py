@@ -220,3 +220,26 @@ def test_evaluate_env_option_is_a_deprecated_alias(monkeypatch, capsys):
     assert err == ["rallysim evaluate: warning: --env is deprecated: use --player (same "
                    "effect)"]
     assert calls[0] == calls[1] and calls[0][2] == 3
+
+
+def test_reproduce_takes_a_finished_run_only_with_its_own_settings(tmp_path):
+    """A run in ``--out`` trained with other settings (another recipe) is refused, naming the
+    settings; a record that predates a setting counts as having its default."""
+    from rallysim.train.reproduce import check_same_settings
+
+    run = tmp_path / "low_seed0"
+    run.mkdir()
+    asked = load_config("low", None, {"seed": 0})
+    old = load_config("low", None, {"seed": 0, "returnable": 0.5}).to_dict()
+    (run / "config.yaml").write_text(yaml.safe_dump(old))
+    with pytest.raises(ValueError, match=r"low_seed0 was trained with other settings "
+                                         r"\(returnable: 0.5 there, 0.0 here\)"):
+        check_same_settings(run, asked)
+    check_same_settings(run, load_config("low", None, {"seed": 0, "returnable": 0.5}))
+    del old["returnable"], old["ready"]
+    (run / "config.yaml").write_text(yaml.safe_dump(old))
+    check_same_settings(run, asked)
+    old["ppo"]["n_epochs"] = 5
+    (run / "config.yaml").write_text(yaml.safe_dump(old))
+    with pytest.raises(ValueError, match=r"ppo.n_epochs: 5 there, 10 here"):
+        check_same_settings(run, asked)

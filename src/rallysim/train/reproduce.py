@@ -193,6 +193,7 @@ def train_seed_stage(seed: int, stage: str, budget: Budget, out: Path,
     config = load_config(stage, None, overrides)
     done = finished(run, config.budget)
     if done is not None:
+        check_same_settings(run, config)
         _say(queue, f"[seed {seed}] {stage}: already trained, skipped")
         return done
     t = time.perf_counter()
@@ -207,6 +208,32 @@ def train_seed_stage(seed: int, stage: str, budget: Budget, out: Path,
     _say(queue, f"[seed {seed}] {stage}: done in {time.perf_counter() - t:.0f} s, "
                 + headline(config, curve["final"]))
     return curve
+
+
+def check_same_settings(run: Path, config: Any) -> None:
+    """A finished run is taken only if its recorded settings (``config.yaml``) are ``config``'s,
+    a setting it predates counting as its default; ``ValueError`` naming those that differ."""
+    import yaml
+
+    from rallysim.train.config import TrainConfig
+
+    path = run / "config.yaml"
+    if not path.is_file():
+        return
+
+    def flat(doc: dict[str, Any]) -> dict[str, Any]:
+        return {f"{key}.{k}" if isinstance(value, dict) else key: v
+                for key, value in doc.items()
+                for k, v in (value.items() if isinstance(value, dict) else [(None, value)])}
+
+    old = flat(yaml.safe_load(path.read_text()))
+    default = flat(TrainConfig(stage=config.stage, player=config.player).to_dict())
+    new = flat(config.to_dict())
+    differ = [f"{key}: {old.get(key, default.get(key))!r} there, {value!r} here"
+              for key, value in new.items() if old.get(key, default.get(key)) != value]
+    if differ:
+        raise ValueError(f"{run} was trained with other settings ({'; '.join(differ)}): "
+                         f"reproduce into another --out, or remove that run to train it again")
 
 
 def evaluation_seed(seed: int) -> int:
