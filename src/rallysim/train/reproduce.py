@@ -563,6 +563,8 @@ def summarise(budget: Budget, curves: dict[int, dict[str, Any]], per_seed: dict[
 
 
 def _ci(e: dict[str, float], digits: int = 2, scale: float = 1.0) -> str:
+    if e["value"] is None or not np.isfinite(e["value"]):
+        return "—"  # undefined: no rally of the method got that far
     return (f"{scale * e['value']:.{digits}f} [{scale * e['low']:.{digits}f}, "
             f"{scale * e['high']:.{digits}f}]")
 
