@@ -13,7 +13,9 @@ that each seed's mean compares with the same seed of ``rallysim reproduce --seed
     python -m experiments.returnable_probe --out probe --seeds 0,1,2,3,4 --bonus 0.5
 
 Each seed's result is written to ``OUT/seed{N}.json`` as soon as it is played; a rerun skips
-the seeds already there.
+the seeds already there. ``--report FILE`` then pools the seeds in ``OUT`` into FILE (JSON):
+HRL's mean with its 95 % interval (seeds, then rallies, resampled), per seed, the worst seed,
+and with ``--compare STUDY/results.json`` the paired difference from that study's seeds.
 """
 
 from __future__ import annotations
@@ -21,7 +23,7 @@ from __future__ import annotations
 import argparse
 import json
 import time
-from dataclasses import replace
+from dataclasses import asdict, replace
 from pathlib import Path
 from typing import Any
 
@@ -49,6 +51,30 @@ def run_seed(seed: int, out: Path, bonus: float, ready: float = 0.0) -> dict[str
             "wall_s": round(time.perf_counter() - t, 1)}
 
 
+def report(out: Path, compare: Path | None) -> dict[str, Any]:
+    """The pooled summary of the seeds in ``out`` (see the module docstring)."""
+    from rallysim.eval.stats import estimate, mean, over_seeds
+
+    seeds = sorted((json.loads(p.read_text()) for p in out.glob("seed*.json")),
+                   key=lambda r: r["seed"])
+    if not seeds:
+        raise SystemExit(f"no seed*.json in {out}")
+    per_seed = {str(r["seed"]): r["hrl_mean"] for r in seeds}
+    doc: dict[str, Any] = {
+        "bonus": seeds[0]["bonus"], "ready": seeds[0].get("ready", 0.0), "per_seed": per_seed,
+        "pooled": asdict(estimate([np.array(r["lengths"]) for r in seeds], mean)),
+        "worst_seed": min(per_seed.items(), key=lambda kv: kv[1]),
+        "seeds_at_40_or_more": sum(v >= 40.0 for v in per_seed.values()),
+        "lengths": {str(r["seed"]): r["lengths"] for r in seeds}}
+    if compare is not None:
+        study = json.loads(compare.read_text())["methods_per_seed"]["HRL"]
+        before = {s: study[s]["mean"]["value"] for s in per_seed if s in study}
+        doc["compared_with"] = {"study": str(compare), "per_seed": before,
+                                "paired_difference": over_seeds(
+                                    [per_seed[s] - before[s] for s in before])}
+    return doc
+
+
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, required=True)
@@ -56,7 +82,15 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--bonus", type=float, default=0.5)
     parser.add_argument("--ready", type=float, default=0.0,
                         help="the task's ready reward too (0: off)")
+    parser.add_argument("--report", type=Path, help="pool the seeds in --out into this JSON")
+    parser.add_argument("--compare", type=Path, help="a study's results.json (--report)")
     args = parser.parse_args(argv)
+    if args.report is not None:
+        doc = report(args.out, args.compare)
+        args.report.write_text(json.dumps(doc, indent=1) + "\n")
+        print(json.dumps({k: v for k, v in doc.items() if k not in ("compared_with", "lengths")},
+                         indent=1))
+        return
     args.out.mkdir(parents=True, exist_ok=True)
     for seed in (int(s) for s in args.seeds.split(",")):
         path = args.out / f"seed{seed}.json"

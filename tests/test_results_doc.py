@@ -116,3 +116,38 @@ def test_the_train_speed_before_and_after_matches_its_json():
         before, after = medians["before"][key], medians["after"][key]
         assert f"| {before:,.0f} " in text and f"| {after:,.0f} " in text, key
         assert f"| {after / before:.2f}x |" in text, key
+
+
+def _seed_row(label: str, per_seed: dict[str, float]) -> str:
+    cells = [f"{per_seed[str(s)]:.2f}" if str(s) in per_seed else "" for s in range(10)]
+    return f"| {label} | " + " | ".join(cells) + " |"
+
+
+def _interval(e: dict[str, float]) -> str:
+    return f"{e['value']:.2f} [{e['low']:.2f}, {e['high']:.2f}]"
+
+
+def test_the_task_term_probes_match_their_json():
+    """The research log's per-seed tables and pooled numbers of the returnability and ready
+    probes are those of the JSON the probes' reports wrote."""
+    data = ROOT / "docs" / "data"
+    text = (ROOT / "docs" / "research-log" / "reproduce.md").read_text()
+
+    def load(name: str) -> dict:
+        return json.loads((data / name).read_text())
+
+    ret, m = load("returnable_probe_seeds10.json"), load("task_terms_seeds10.json")
+    g, g_ret = load("task_terms_seeds10_generic.json"), load("returnable_probe_seeds6_generic.json")
+    for row in (_seed_row("study", ret["compared_with"]["per_seed"]),
+                _seed_row("with the term", ret["per_seed"]),
+                _seed_row("machine: study", m["compared_with"]["per_seed"]),
+                _seed_row("machine: both terms", m["per_seed"]),
+                _seed_row("second setting: study", g["compared_with"]["per_seed"]),
+                _seed_row("second setting: returnable only", g_ret["per_seed"]),
+                _seed_row("second setting: both terms", g["per_seed"])):
+        assert row in text, row
+    for e in (ret["pooled"], g["pooled"], m["pooled"]):
+        assert _interval(e) in text
+    for e in (ret["compared_with"]["paired_difference"], g["compared_with"]["paired_difference"]):
+        assert "+" + _interval(e) in text
+    assert m["worst_seed"] == ["8", 14.745] and g["seeds_at_40_or_more"] == 10
