@@ -59,6 +59,9 @@ def report(out: Path, compare: Path | None) -> dict[str, Any]:
                    key=lambda r: r["seed"])
     if not seeds:
         raise SystemExit(f"no seed*.json in {out}")
+    terms = {(r["bonus"], r.get("ready", 0.0)) for r in seeds}
+    if len(terms) > 1:
+        raise SystemExit(f"{out} holds seeds of several probes (bonus, ready): {sorted(terms)}")
     per_seed = {str(r["seed"]): r["hrl_mean"] for r in seeds}
     doc: dict[str, Any] = {
         "bonus": seeds[0]["bonus"], "ready": seeds[0].get("ready", 0.0), "per_seed": per_seed,
@@ -95,6 +98,10 @@ def main(argv: list[str] | None = None) -> None:
     for seed in (int(s) for s in args.seeds.split(",")):
         path = args.out / f"seed{seed}.json"
         if path.exists():
+            done = json.loads(path.read_text())
+            if (done["bonus"], done.get("ready", 0.0)) != (args.bonus, args.ready):
+                raise SystemExit(f"{path} was played with bonus {done['bonus']}, ready "
+                                 f"{done.get('ready', 0.0)}: use another --out")
             continue
         result = {"bonus": args.bonus, "ready": args.ready,
                   **run_seed(seed, args.out, args.bonus, args.ready)}

@@ -241,9 +241,16 @@ def test_ready_rewards_standing_mid_range_when_the_shot_lands():
                 unpaid_landings += 1
                 assert ready[i] == 0.0
     assert len(paid) >= 10 and unpaid_landings >= 1
-    single = SimpleReturnEnv(ready=0.5)
+    single = SimpleReturnEnv(ready=0.5, returnable=0.25)
     single.reset(seed=0, options={"base_x": -3.75})
-    assert single.task.ready == 0.5 and "reward_ready" in single.step([0, 0, 0])[4]
+    assert single.reward_keys == ("reward_shaping", "reward_hit", "reward_landing",
+                                  "reward_returnable", "reward_ready")
+    assert SimpleReturnEnv().reward_keys == single.reward_keys[:3]
+    for _ in range(30):
+        _, r, term, _, info = single.step([0, 0, 0])
+        assert sum(info[k] for k in single.reward_keys) == r
+        if term:
+            break
 
 
 def test_truncation_at_max_decisions():

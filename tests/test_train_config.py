@@ -239,7 +239,23 @@ def test_reproduce_takes_a_finished_run_only_with_its_own_settings(tmp_path):
     del old["returnable"], old["ready"]
     (run / "config.yaml").write_text(yaml.safe_dump(old))
     check_same_settings(run, asked)
+    # the high stage's low level, named by a path written another way, and a backend's own
+    # keys do not count
+    high = load_config("high", None, {"seed": 0, "low_policy": "out/runs/low_seed0/policy"})
+    doc = {**high.to_dict(), "low_policy": "/abs/out/runs/low_seed0/policy", "backend": "sb3"}
+    (run / "config.yaml").write_text(yaml.safe_dump(doc))
+    check_same_settings(run, high)
     old["ppo"]["n_epochs"] = 5
     (run / "config.yaml").write_text(yaml.safe_dump(old))
-    with pytest.raises(ValueError, match=r"ppo.n_epochs: 5 there, 10 here"):
+    with pytest.raises(ValueError, match=r"ppo.n_epochs: 5 there, 10 here.*remove that run and "
+                                         r"the seed's later stages"):
         check_same_settings(run, asked)
+
+
+def test_the_reward_options_belong_to_the_simple_low_stage():
+    with pytest.raises(ValueError, match=r"returnable=0\.5: the SIMPLE low stage's reward "
+                                         r"options, not the .* high stage's"):
+        load_config("high", None, {"returnable": 0.5})
+    with pytest.raises(ValueError, match=r"ready=1\.0: the SIMPLE low stage's"):
+        load_config("low", None, {"player": "humanlike", "ready": 1.0})
+    assert load_config("low", None, {"ready": 1.0}).ready == 1.0

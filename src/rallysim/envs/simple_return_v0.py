@@ -43,7 +43,7 @@ Terminates when the shuttle's centre drops below z = 0; truncates after 1000 dec
 | ``keep_bodies`` | ``False`` | ``True``: like the original builds, a new episode starts with the player where the last one left it (the first from a random start); reset options still place it |
 | ``goals`` | ``"uniform"`` | ``"uniform"``: d* ~ U[range]; ``"reachable"`` (the default of ``-v1``): d* uniform over the depths a full-speed shot from a meeting the player can make reaches (``rallysim.core.reach.ShotPlanner``, the paper flight model), within the range: the nearest end of the range when the serve reaches none of it, the whole range when it reaches no depth |
 | ``returnable`` | ``0.0`` | not the paper's: this much more reward for a hit whose shot the opponent could meet at full speed from some base position (``rallysim.core.reach.ShotPlanner.returnable``, the paper flight model); ``info`` then also gives ``reward_returnable`` |
-| ``ready`` | ``0.0`` | not the paper's: at the landing after the player's hit, this much times exp(-0.5 d) more reward, d the base's distance from the middle of its range (-3.75 m), where it can reach either end soonest; ``info`` then also gives ``reward_ready`` |
+| ``ready`` | ``0.0`` | not the paper's: in the decision in which the player's shot lands, this much times exp(-0.5 d) more reward, d the base's distance at the end of that decision from the middle of its range (-3.75 m), where it can reach either end soonest; ``info`` then also gives ``reward_ready`` |
 | ``incoming`` | ``"serve"`` | what comes over: the machine serve (the paper); ``"rally"``: a shot drawn from 4,096 recorded rally shots (scripted players aiming at 2-6 m); ``"mixed"``: either, half the time each |
 
 ``reset(options=...)`` accepts ``target_depth`` (metres, in [2, 6]), ``base_x`` (metres, in
@@ -111,6 +111,8 @@ class SimpleReturnEnv(TaskEnv):
         check_keywords(unknown, keyword_names(SimpleReturnEnv.__init__))
         task = ReturnTask(1, shuttle, None, target_depth_range, max_decisions, incoming,
                           keep_bodies, goals, returnable, ready)
+        # the reward's terms, with those of the options that are on
+        self.reward_keys = (*type(self).reward_keys, *task.extra_reward_keys)
         self._info_keys = (*self._info_keys, *task.extra_reward_keys)
         self._init_task(task, OBS_SIZE, ACTION_SIZE, render_mode, {})
 

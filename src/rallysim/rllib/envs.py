@@ -53,13 +53,14 @@ def make_return_env(env_config: dict[str, Any]) -> gym.Env | gym.vector.VectorEn
 
         return HumanLikeReturnEnv(**kwargs) if n is None else HumanLikeReturnVectorEnv(
             int(n), **kwargs)
+    from rallysim.core.tasks.simple_return import REWARD_OPTIONS
     from rallysim.envs.simple_return_v0 import SimpleReturnEnv, SimpleReturnVectorEnv
 
     kwargs["incoming"] = env_config.get("incoming", "serve")
     kwargs["keep_bodies"] = bool(env_config.get("keep_bodies", False))
     kwargs["goals"] = env_config.get("goals", "uniform")
-    kwargs["returnable"] = env_config.get("returnable", 0.0)
-    kwargs["ready"] = env_config.get("ready", 0.0)
+    for name in REWARD_OPTIONS:
+        kwargs[name] = env_config.get(name, 0.0)
     return SimpleReturnEnv(**kwargs) if n is None else SimpleReturnVectorEnv(int(n), **kwargs)
 
 

@@ -115,6 +115,10 @@ class TrainConfig:
         if self.warm_start.enabled and not stage.warm_starts:
             starts = " and ".join(s.name for s in stages.STAGES.values() if s.warm_starts)
             raise ValueError(f"warm_start applies to the {starts} stage only")
+        terms = [f"{n}={getattr(self, n)}" for n in ("returnable", "ready") if getattr(self, n)]
+        if terms and (self.stage != "low" or self.player != "simple"):
+            raise ValueError(f"{' and '.join(terms)}: the SIMPLE low stage's reward options, "
+                             f"not the {PLAYERS[self.player].label} {stage.name} stage's")
         if self.goal_sweep and not stage.sweeps_goals:
             raise ValueError(f"goal_sweep applies to the high stage only, got "
                              f"{self.goal_sweep} for the {stage.name} stage")

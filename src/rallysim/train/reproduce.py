@@ -32,7 +32,7 @@ import multiprocessing as mp
 import sys
 import time
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
-from dataclasses import asdict, dataclass, replace
+from dataclasses import asdict, dataclass, fields, replace
 from pathlib import Path
 from typing import Any
 
@@ -191,9 +191,9 @@ def train_seed_stage(seed: int, stage: str, budget: Budget, out: Path,
     if stage in LINKS:
         overrides.update(LINKS[stage](seed, out, curves))
     config = load_config(stage, None, overrides)
+    check_same_settings(run, config)
     done = finished(run, config.budget)
     if done is not None:
-        check_same_settings(run, config)
         _say(queue, f"[seed {seed}] {stage}: already trained, skipped")
         return done
     t = time.perf_counter()
@@ -211,29 +211,40 @@ def train_seed_stage(seed: int, stage: str, budget: Budget, out: Path,
 
 
 def check_same_settings(run: Path, config: Any) -> None:
-    """A finished run is taken only if its recorded settings (``config.yaml``) are ``config``'s,
-    a setting it predates counting as its default; ``ValueError`` naming those that differ."""
+    """A run in ``--out`` (finished or to be resumed) is taken only if its recorded settings
+    (``config.yaml``) are ``config``'s, a setting it predates counting as its default;
+    ``ValueError`` naming those that differ. The low level a high stage plays over is named by
+    a path, which may be written another way: it is not compared."""
     import yaml
 
-    from rallysim.train.config import TrainConfig
+    from rallysim.train.config import BUDGET_UNIT, LEGACY_KEYS, SECTIONS, TrainConfig
 
     path = run / "config.yaml"
     if not path.is_file():
         return
+    doc = yaml.safe_load(path.read_text())
+    # (a backend writes its own keys beside the settings)
+    known = {f.name for f in fields(TrainConfig)} | set(LEGACY_KEYS) | set(SECTIONS) | {
+        BUDGET_UNIT}
+    try:
+        recorded = TrainConfig.from_dict({k: v for k, v in doc.items() if k in known},
+                                         warn=False)
+    except (ValueError, TypeError, AttributeError) as exc:
+        raise ValueError(f"{path} cannot be read as settings ({exc}): reproduce into another "
+                         f"--out, or remove that run") from None
 
-    def flat(doc: dict[str, Any]) -> dict[str, Any]:
+    def flat(c: Any) -> dict[str, Any]:
         return {f"{key}.{k}" if isinstance(value, dict) else key: v
-                for key, value in doc.items()
+                for key, value in c.to_dict().items() if key != "low_policy"
                 for k, v in (value.items() if isinstance(value, dict) else [(None, value)])}
 
-    old = flat(yaml.safe_load(path.read_text()))
-    default = flat(TrainConfig(stage=config.stage, player=config.player).to_dict())
-    new = flat(config.to_dict())
-    differ = [f"{key}: {old.get(key, default.get(key))!r} there, {value!r} here"
-              for key, value in new.items() if old.get(key, default.get(key)) != value]
+    old, new = flat(recorded), flat(config)
+    differ = [f"{key}: {old.get(key)!r} there, {value!r} here"
+              for key, value in new.items() if old.get(key) != value]
     if differ:
         raise ValueError(f"{run} was trained with other settings ({'; '.join(differ)}): "
-                         f"reproduce into another --out, or remove that run to train it again")
+                         f"reproduce into another --out, or remove that run and the seed's "
+                         f"later stages to train them again")
 
 
 def evaluation_seed(seed: int) -> int:

@@ -62,7 +62,8 @@ class CloneTask:
     seed: int  # round k's episodes are drawn from seed + 7919 k
     make_env: Callable[..., Any]  # (environments, shuttle, **options) -> same-step vector env
     # the task's reward options (the SIMPLE task's returnable and ready), so that the critic
-    # the clone fits is the one of the task PPO trains on
+    # the clone fits is fitted to the rewards PPO trains on (its goals and incoming shots stay
+    # the default task's)
     options: dict[str, Any] = field(default_factory=dict)
 
 

@@ -36,6 +36,7 @@ INCOMING = ("serve", "mixed", "rally")
 RALLY_SHOT_SHARE = {"mixed": 0.5, "rally": 1.0}  # games served a recorded rally shot
 LANDING_KEYS = ("landing_point", "landing_depth", "landing_error", "landed_in")
 GOALS = ("uniform", "reachable")
+REWARD_OPTIONS = ("returnable", "ready")  # optional reward terms (info: "reward_" + name)
 
 
 class ReturnTask:
@@ -79,8 +80,7 @@ class ReturnTask:
     @property
     def extra_reward_keys(self) -> tuple[str, ...]:
         """The info keys of the optional reward terms this task gives."""
-        return tuple(f"reward_{name}" for name in ("returnable", "ready")
-                     if getattr(self, name) > 0.0)
+        return tuple(f"reward_{name}" for name in REWARD_OPTIONS if getattr(self, name) > 0.0)
 
     def reset(self, envs: np.ndarray, options: dict[str, Any] | None = None) -> None:
         envs = np.asarray(envs, np.int64)
@@ -172,8 +172,8 @@ class ReturnTask:
             extra = self._returnable_reward(hit)
             reward = reward + extra
         if self.ready > 0.0:
-            # after its hit, where the player stands when the shot lands: the middle of the
-            # base's range, from which it reaches either end soonest
+            # after its hit, where the player stands at the end of the decision in which the
+            # shot lands: the middle of the base's range reaches either end soonest
             off = abs(read0(game.bodies.base_x) - 0.5 * sum(game.bodies.base_range))
             ready = ops.where(landed & read0(game.has_hit),
                               self.ready * ops.exp(-R_DIST_RATE * off), 0.0)

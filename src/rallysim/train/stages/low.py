@@ -47,10 +47,13 @@ class LowPlayer:
     clone_env: Callable[..., Any]
 
 
+REWARD_OPTIONS = ("returnable", "ready")  # the SIMPLE task's optional reward terms
+
+
 def _simple_kwargs(config: TrainConfig) -> dict[str, Any]:
     return {"shuttle": config.shuttle, "incoming": config.incoming,
             "keep_bodies": config.keep_bodies, "goals": config.goals,
-            "returnable": config.returnable, "ready": config.ready}
+            **{name: getattr(config, name) for name in REWARD_OPTIONS}}
 
 
 def _simple_evaluate(config: TrainConfig, act: Policy, episodes: int) -> dict[str, Any]:
@@ -142,9 +145,7 @@ class LowStage(Stage):
 
     def env_options(self, config: TrainConfig) -> dict[str, Any]:
         # "env" names the player: the key rallysim.rllib.envs.make_return_env reads
-        return {"shuttle": config.shuttle, "env": config.player, "incoming": config.incoming,
-                "keep_bodies": config.keep_bodies, "goals": config.goals,
-                "returnable": config.returnable, "ready": config.ready}
+        return {**_simple_kwargs(config), "env": config.player}
 
     def evaluate(self, config: TrainConfig, act: Policy, rallies: int | None = None
                  ) -> dict[str, Any]:
@@ -166,8 +167,7 @@ class LowStage(Stage):
         """Where the warm start's teacher and clone play."""
         from rallysim.train.warm_start import CloneTask
 
-        options = ({k: getattr(config, k) for k in ("returnable", "ready") if getattr(config, k)}
-                   if config.player == "simple" else {})
+        options = {k: getattr(config, k) for k in REWARD_OPTIONS if getattr(config, k)}
         return CloneTask(player=config.player, shuttle=config.shuttle,
                          seed=config.seed + CLONE_SEED_OFFSET,
                          make_env=PLAYERS[config.player].clone_env, options=options)
