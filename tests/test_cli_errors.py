@@ -519,9 +519,10 @@ def test_settings_text_is_read_as_the_field_type():
 
 
 def test_copies_of_bounds_match_their_source():
-    from rallysim.core.tasks.simple_return import GOALS, INCOMING
+    from rallysim.core.tasks.simple_return import GOALS, INCOMING, REWARD_OPTIONS
 
     assert train_config.INCOMING == INCOMING and train_config.GOALS == GOALS
+    assert train_config.REWARD_OPTIONS == REWARD_OPTIONS
     assert cli.SEED_MAX == train_config.SEED_MAX
 
 

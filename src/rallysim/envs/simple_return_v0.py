@@ -55,9 +55,9 @@ value per environment.
 ``landing_point`` (world, m), ``landing_depth`` (m beyond the net), ``landing_error``
 (abs(depth - d*)), ``landed_in``, ``target_depth``, and the reward's terms every step, which
 sum to it: ``reward_shaping``, ``reward_hit``, ``reward_landing`` (and ``reward_returnable``,
-``reward_ready`` when those options are on). The single env gives ``racket_speed`` only on a hit and the landing
-keys only at the landing; the vector env gives arrays for all keys, with NaN where a value does
-not apply and Gymnasium's ``_key`` masks marking where it does.
+``reward_ready`` when those options are on). The single env gives ``racket_speed`` only on a
+hit and the landing keys only at the landing; the vector env gives arrays for all keys, with NaN
+where a value does not apply and Gymnasium's ``_key`` masks marking where it does.
 
 ## Version history
 - v1: ``goals="reachable"``. Over 1,000 fresh serves only 39 % of v0's U[2, 6] m goals can be

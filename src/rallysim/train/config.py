@@ -43,6 +43,7 @@ CONFIG_DIR = Path(__file__).parent / "configs"
 # them equal) because importing the environment here would load MuJoCo for every config read
 INCOMING = ("serve", "mixed", "rally")
 GOALS = ("uniform", "reachable")  # likewise envs.simple_return_v0.GOALS
+REWARD_OPTIONS = ("returnable", "ready")  # likewise core.tasks.simple_return.REWARD_OPTIONS
 BUDGET_UNIT = "budget_unit"  # written beside the budget; read back only to check it
 
 
@@ -115,7 +116,7 @@ class TrainConfig:
         if self.warm_start.enabled and not stage.warm_starts:
             starts = " and ".join(s.name for s in stages.STAGES.values() if s.warm_starts)
             raise ValueError(f"warm_start applies to the {starts} stage only")
-        terms = [f"{n}={getattr(self, n)}" for n in ("returnable", "ready") if getattr(self, n)]
+        terms = [f"{n}={getattr(self, n)}" for n in REWARD_OPTIONS if getattr(self, n)]
         if terms and (self.stage != "low" or self.player != "simple"):
             raise ValueError(f"{' and '.join(terms)}: the SIMPLE low stage's reward options, "
                              f"not the {PLAYERS[self.player].label} {stage.name} stage's")

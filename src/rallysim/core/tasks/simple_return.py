@@ -167,10 +167,10 @@ class ReturnTask:
             closeness = ops.exp(-R_DIST_RATE * ops.where(landed, error, 0.0))
             landing = ops.where(scored, closeness, 0.0)
             reward = reward + landing
-        extra = ready = None
+        returnable = ready = None
         if self.returnable > 0.0:
-            extra = self._returnable_reward(hit)
-            reward = reward + extra
+            returnable = self._returnable_reward(hit)
+            reward = reward + returnable
         if self.ready > 0.0:
             # after its hit, where the player stands at the end of the decision in which the
             # shot lands: the middle of the base's range reaches either end soonest
@@ -186,8 +186,8 @@ class ReturnTask:
                 "landing_error": error, "landed_in": landed_in, "target_depth": goal,
                 # the reward's terms, which sum to it (Gymnasium's MuJoCo v5 habit)
                 "reward_shaping": shaping, "reward_hit": R_HIT * hit, "reward_landing": landing}
-        if extra is not None:
-            info["reward_returnable"] = extra
+        if returnable is not None:
+            info["reward_returnable"] = returnable
         if ready is not None:
             info["reward_ready"] = ready
         return reward, landed, truncated, info

@@ -47,10 +47,10 @@ class LowPlayer:
     clone_env: Callable[..., Any]
 
 
-REWARD_OPTIONS = ("returnable", "ready")  # the SIMPLE task's optional reward terms
-
 
 def _simple_kwargs(config: TrainConfig) -> dict[str, Any]:
+    from rallysim.core.tasks.simple_return import REWARD_OPTIONS
+
     return {"shuttle": config.shuttle, "incoming": config.incoming,
             "keep_bodies": config.keep_bodies, "goals": config.goals,
             **{name: getattr(config, name) for name in REWARD_OPTIONS}}
@@ -165,6 +165,7 @@ class LowStage(Stage):
 
     def clone_task(self, config: TrainConfig) -> CloneTask:
         """Where the warm start's teacher and clone play."""
+        from rallysim.core.tasks.simple_return import REWARD_OPTIONS
         from rallysim.train.warm_start import CloneTask
 
         options = {k: getattr(config, k) for k in REWARD_OPTIONS if getattr(config, k)}
