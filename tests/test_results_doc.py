@@ -151,3 +151,22 @@ def test_the_task_term_probes_match_their_json():
     for e in (ret["compared_with"]["paired_difference"], g["compared_with"]["paired_difference"]):
         assert "+" + _interval(e) in text
     assert m["worst_seed"] == ["8", 14.745] and g["seeds_at_40_or_more"] == 10
+
+
+def test_the_high_action_range_runs_match_their_json():
+    """The research log's table of high levels with and without the action-range remedies is
+    the JSON's, and so are the numbers its text draws from it."""
+    data = json.loads((ROOT / "docs" / "data" / "high_action_range.json").read_text())
+    text = (ROOT / "docs" / "research-log" / "reproduce.md").read_text()
+    keys = ("default", "bound_only", "anneal_only", "bound_and_anneal", "sweep_bound_and_anneal")
+    for r in data["runs"]:
+        cells = ("—" if r.get(k) is None else f"{r[k]:.2f}" for k in keys)
+        assert f"| {r['setting']}, {r['seed']} | " + " | ".join(cells) + " |" in text
+    good = [r for r in data["runs"] if r["default"] >= 40]
+    changes = [r["bound_and_anneal"] - r["default"] for r in good]
+    assert len(good) == 5 and f"{min(changes):.2f} to +{max(changes):.2f}" in text
+    # the same commands gave other bits on the machine of the earlier probes
+    earlier = {"machine": "task_terms_seeds10.json", "second": "task_terms_seeds10_generic.json"}
+    for r in data["runs"]:
+        before = json.loads((ROOT / "docs" / "data" / earlier[r["setting"]]).read_text())
+        assert before["per_seed"][str(r["seed"])] != r["default"]

@@ -52,6 +52,9 @@ def build_ppo_config(config: TrainConfig, env_runners: int = 2,
     if env_runners < 0:
         raise ValueError(f"env_runners must be >= 0, got {env_runners}")
     ppo_settings = config.ppo
+    if ppo_settings.mean_bound or ppo_settings.log_std_end is not None:
+        raise ValueError("ppo.mean_bound and ppo.log_std_end are SB3-only settings "
+                         "(rallysim.train.action_range); train with --backend sb3 or unset them")
     lr: Any = ppo_settings.learning_rate
     if ppo_settings.anneal_lr:
         lr = [[0, ppo_settings.learning_rate], [config.budget, 0.0]]

@@ -38,6 +38,7 @@ import numpy as np
 
 from rallysim.train import checkpoint as ckpt
 from rallysim.train import stages
+from rallysim.train.action_range import cap_log_std, log_std_cap, pull_mean_into_range
 from rallysim.train.config import TrainConfig
 from rallysim.train.progress import Heartbeat, Say, progress_lines, say_stderr
 from rallysim.train.run_log import RunLog
@@ -57,6 +58,9 @@ class _Monitor:
         class Callback(BaseCallback):
             def _on_step(self) -> bool:
                 return True
+
+            def _on_rollout_start(self) -> None:
+                monitor.rollout_start(self.model)
 
             def _on_rollout_end(self) -> None:
                 monitor.rollout_end(self.model)
@@ -79,6 +83,12 @@ class _Monitor:
                             unit_scale=True, desc=f"train {config.stage}", file=sys.stderr,
                             dynamic_ncols=True, smoothing=0.1)
             self.log.say = self.bar.write
+
+    def rollout_start(self, model: Any) -> None:
+        ppo, config = self.log.config.ppo, self.log.config
+        if ppo.log_std_end is not None:
+            cap_log_std(model.policy, log_std_cap(ppo.log_std_init, ppo.log_std_end,
+                                                  model.num_timesteps / config.budget))
 
     def rollout_end(self, model: Any) -> None:
         steps = int(model.num_timesteps)
@@ -126,8 +136,11 @@ def build_model(config: TrainConfig, out: Path) -> Any:
 
     torch.set_num_threads(config.torch_threads)
     env = stages.make_env(config)
-    return PPO("MlpPolicy", env, seed=config.seed, device="cpu", verbose=0,
-               tensorboard_log=str(out / "tb"), **config.ppo.sb3_kwargs())
+    model = PPO("MlpPolicy", env, seed=config.seed, device="cpu", verbose=0,
+                tensorboard_log=str(out / "tb"), **config.ppo.sb3_kwargs())
+    if config.ppo.mean_bound > 0:
+        pull_mean_into_range(model.policy, config.ppo.mean_bound)
+    return model
 
 
 def train_stage(config: TrainConfig, out_dir: str | Path, resume: bool = True,

@@ -37,6 +37,11 @@ class PPOSettings:
     net_arch: tuple[int, ...] = (64, 64)
     activation: str = "tanh"
     log_std_init: float = -0.5
+    # SB3 only: keep the Gaussian inside the action range (rallysim.train.action_range): the
+    # weight of a penalty on the mean beyond it, and the log-std's upper bound at the budget's
+    # end, lowered linearly from log_std_init (None: the log-std is only learned)
+    mean_bound: float = 0.0
+    log_std_end: float | None = None
 
     def __post_init__(self) -> None:
         if isinstance(self.net_arch, list):  # as YAML and to_dict() write it
@@ -45,6 +50,9 @@ class PPOSettings:
         if any(width < 1 for width in self.net_arch):
             raise ValueError(f"ppo.net_arch layer widths must be >= 1, got "
                              f"{list(self.net_arch)}")
+        if self.log_std_end is not None and self.log_std_end > self.log_std_init:
+            raise ValueError(f"ppo.log_std_end lowers the log-std from ppo.log_std_init: it "
+                             f"must be <= {self.log_std_init}, got {self.log_std_end}")
         if self.n_envs * self.n_steps < 2:
             raise ValueError(f"a rollout (ppo.n_envs x ppo.n_steps) needs at least 2 decisions, "
                              f"got {self.n_envs} x {self.n_steps}")
@@ -78,7 +86,7 @@ _PPO_BOUNDS: dict[str, Bound] = {
     # a discount or GAE lambda above 1 lets returns grow without bound
     "gamma": within(0, 1), "gae_lambda": within(0, 1),
     "clip_range": above(0), "ent_coef": at_least(0), "vf_coef": at_least(0),
-    "max_grad_norm": above(0),
+    "max_grad_norm": above(0), "mean_bound": at_least(0),
 }
 
 
