@@ -170,3 +170,19 @@ def test_the_high_action_range_runs_match_their_json():
     for r in data["runs"]:
         before = json.loads((ROOT / "docs" / "data" / earlier[r["setting"]]).read_text())
         assert before["per_seed"][str(r["seed"])] != r["default"]
+
+
+def test_the_second_cpus_fingerprints_match_what_the_numerics_page_says():
+    """docs/numerics.md: on the AVX-512 EPYC, pinned and candidate training equal the committed
+    fingerprints for every stage; native only for low and mono."""
+    data = ROOT / "docs" / "data"
+    first = json.loads((data / "numerics_fingerprint.json").read_text())["settings"]
+    second = json.loads((data / "numerics_fingerprint_avx512.json").read_text())
+    assert second["numerics"]["avx512"] and not json.loads(
+        (data / "numerics_fingerprint.json").read_text())["numerics"]["avx512"]
+    same = {name: {stage for stage, h in s["fingerprints"].items()
+                   if first[name]["fingerprints"][stage] == h}
+            for name, s in second["settings"].items()}
+    assert same == {"native": {"low", "mono"}, "pinned": {"low", "high", "mono"},
+                    "candidate": {"low", "high", "mono"}}
+    assert "all three stages' weights are identical" in (ROOT / "docs" / "numerics.md").read_text()
