@@ -20,14 +20,13 @@ def _policy(low: float, high: float) -> torch.nn.Module:
     return ActorCriticPolicy(obs, act, lambda _: 3e-4)
 
 
-def _mean_grad(policy: torch.nn.Module, obs: torch.Tensor, shift: torch.Tensor
+def _mean_grad(policy: torch.nn.Module, obs: torch.Tensor
                ) -> tuple[torch.Tensor, torch.Tensor]:
-    """The actor's mean (shifted by ``shift`` after the action net, so that some lie beyond
-    the range) and the gradient of the sum of means w.r.t. the action net's bias."""
+    """The actor's mean and the gradient of the sum of means w.r.t. the action net's bias."""
     policy.zero_grad()
     latent = policy.mlp_extractor.forward_actor(obs)
     mean = policy.action_net(latent)
-    (mean + shift).sum().backward()
+    mean.sum().backward()
     return mean.detach(), policy.action_net.bias.grad.clone()
 
 
@@ -43,8 +42,8 @@ def test_the_pull_adds_the_penalty_gradient_and_leaves_the_mean() -> None:
     with torch.no_grad():
         plain.action_net.weight[0].mul_(40.0)
         hooked.action_net.weight[0].mul_(40.0)
-    mean_plain, grad_plain = _mean_grad(plain, obs, torch.zeros(2))
-    mean_hooked, grad_hooked = _mean_grad(hooked, obs, torch.zeros(2))
+    mean_plain, grad_plain = _mean_grad(plain, obs)
+    mean_hooked, grad_hooked = _mean_grad(hooked, obs)
     assert torch.equal(mean_plain, mean_hooked)  # the forward value is unchanged
     unit = (mean_plain - torch.tensor([4.0, 0.0])) / torch.tensor([2.0, 1.0])
     beyond = (unit.abs() - 1).clamp(min=0) * unit.sign()

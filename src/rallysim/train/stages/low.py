@@ -47,7 +47,6 @@ class LowPlayer:
     clone_env: Callable[..., Any]
 
 
-
 def _simple_kwargs(config: TrainConfig) -> dict[str, Any]:
     from rallysim.core.tasks.simple_return import REWARD_OPTIONS
 
