@@ -172,6 +172,54 @@ def test_the_high_action_range_runs_match_their_json():
         assert before["per_seed"][str(r["seed"])] != r["default"]
 
 
+def _goals(goals: list[float]) -> str:
+    """Goals as the research log writes them: runs of 0.5 m steps as ``a-b``."""
+    if not goals:
+        return "none"
+    runs = [[goals[0], goals[0]]]
+    for g in goals[1:]:
+        if abs(g - runs[-1][1] - 0.5) < 1e-9:
+            runs[-1][1] = g
+        else:
+            runs.append([g, g])
+    return ", ".join(f"{a:.1f}" if a == b else f"{a:.1f}-{b:.1f}" for a, b in runs)
+
+
+def test_the_rally_shot_probes_match_their_json():
+    """The research log's bands and HRL per seed of the low level trained on rally shots too,
+    and of the serves-only probe beside it, are the probes' reports'; so are its pooled
+    intervals and its counts of goals."""
+    data = ROOT / "docs" / "data"
+    text = (ROOT / "docs" / "research-log" / "reproduce.md").read_text()
+    widths = {}
+    for setting, suffix in (("machine", ""), ("second", "_generic")):
+        mixed = json.loads((data / f"rally_shots_seeds10{suffix}.json").read_text())
+        serves = json.loads((data / f"task_terms_bands{suffix}.json").read_text())
+        assert (mixed["incoming"], mixed["bonus"], mixed["ready"]) == ("mixed", 0.5, 0.5)
+        assert serves["incoming"] == "serve" and len(mixed["per_seed"]) == 10
+        for s, hrl in mixed["per_seed"].items():
+            before = (f"{serves['per_seed'][s]:.2f} | {_goals(serves['band_goals_at_40'][s])}"
+                      if s in serves["per_seed"] else "— | —")
+            row = (f"| {setting}, {s} | {before} | {hrl:.2f} | "
+                   f"{_goals(mixed['band_goals_at_40'][s])} |")
+            assert row in text, row
+            band = mixed["bands"][s]
+            assert [2.0 + 0.5 * i for i, v in enumerate(band) if v >= 40] == \
+                mixed["band_goals_at_40"][s]
+        label = {"machine": "machine", "second": "second setting"}[setting]
+        assert _seed_row(f"{label}: both terms, serves only",
+                         mixed["compared_with"]["per_seed"]) in text
+        assert _seed_row(f"{label}: both terms and rally shots", mixed["per_seed"]) in text
+        assert _interval(mixed["pooled"]) in text and mixed["seeds_at_40_or_more"] == 10
+        widths[setting] = ([len(g) for g in serves["band_goals_at_40"].values()],
+                           [len(g) for g in mixed["band_goals_at_40"].values()])
+    assert min(min(w[1]) for w in widths.values()) == 3
+    assert max(max(w[0]) for w in widths.values()) == 4
+    for serves_only, mixed_in in widths.values():
+        assert f"{sum(serves_only) / len(serves_only):.1f}" in text
+        assert f"{sum(mixed_in) / len(mixed_in):.1f}" in text
+
+
 def test_the_second_cpus_fingerprints_match_what_the_numerics_page_says():
     """docs/numerics.md: on the AVX-512 EPYC, pinned and candidate training equal the committed
     fingerprints for every stage; native only for low and mono."""
