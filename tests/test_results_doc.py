@@ -220,6 +220,24 @@ def test_the_rally_shot_probes_match_their_json():
         assert f"{sum(mixed_in) / len(mixed_in):.1f}" in text
 
 
+def test_the_rally_shot_studies_in_the_research_log_match_their_json():
+    """The research log's generated tables of the 10-seed reproductions with rally shots are
+    their JSON's, and the text's worst seeds and climbs are too."""
+    log = ROOT / "docs" / "research-log" / "reproduce.md"
+    text = log.read_text()
+    names = {"reproduce_rally_shots_seeds10", "reproduce_rally_shots_seeds10_generic"}
+    assert names <= set(blocks(text))
+    assert main(["--check", "--doc", str(log)]) == 0
+    for name in names:
+        data = json.loads((DATA / f"{name}.json").read_text())
+        assert dict(data["budget"]["low_extra"]) == {"returnable": 0.5, "ready": 0.5,
+                                                     "incoming": "mixed"}
+        worst = data["methods"]["HRL"]["worst_seed"]["mean"]["value"]
+        climb = max(data["high_last_climb"].values())
+        assert f"{worst:.2f}" in text and f"{climb:.2f}" in text
+        assert all(v for k, v in data["checks"].items() if "capped_fraction" not in k)
+
+
 def test_the_second_cpus_fingerprints_match_what_the_numerics_page_says():
     """docs/numerics.md: on the AVX-512 EPYC, pinned and candidate training equal the committed
     fingerprints for every stage; native only for low and mono."""

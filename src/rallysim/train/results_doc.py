@@ -44,11 +44,16 @@ def render(results: dict[str, Any]) -> str:
 
 
 def _where_run(results: dict[str, Any]) -> list[str]:
-    """For a HUMAN-LIKE reproduction: the command and the numerics it ran with (the SIMPLE
-    pages say so in their own words)."""
-    if results.get("player") != "humanlike":
-        return []
+    """For a HUMAN-LIKE reproduction: the command and the numerics it ran with. For a SIMPLE
+    one (whose pages give the command in their own words): the numerics where the run recorded
+    them, and the low level's task options where the budget set any."""
     b, cap = results["budget"], results["cap"]
+    if results.get("player") != "humanlike":
+        options = "".join(f"`{k}={v}`, " for k, v in b.get("low_extra", []))
+        line = (f"Low-level task options: {options[:-2]} (not the paper's task). "
+                if options else "")
+        line += numerics_line(results) if "numerics" in results else ""
+        return [line.rstrip(), ""] if line else []
     command = "rallysim reproduce --player humanlike" + (
         f" --budget {b['name']}" if b["name"] != "default" else "") + (
         f" --cap {cap}" if cap != PAPER_CAP else "")
