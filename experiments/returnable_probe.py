@@ -36,7 +36,7 @@ from typing import Any
 import numpy as np
 
 BAND_SEED = 777  # the evaluation seed of the research log's fixed-goal tables
-BAND_GOALS = [2.0 + 0.5 * i for i in range(9)]  # the goals of a 9-point sweep, m
+BAND_POINTS, BAND_RALLIES = 9, 48  # goals 2, 2.5, ..., 6 m; rallies at each
 
 
 def run_seed(seed: int, out: Path, bonus: float, ready: float = 0.0,
@@ -69,7 +69,20 @@ def band_of(low: Any) -> list[float]:
     from rallysim.players import SIMPLE
     from rallysim.train.goal_sweep import sweep_goals
 
-    return sweep_goals(SIMPLE, low, 9, 48, BAND_SEED)["mean_rally"]
+    return sweep_goals(SIMPLE, low, BAND_POINTS, BAND_RALLIES, BAND_SEED)["mean_rally"]
+
+
+def band_goals() -> list[float]:
+    """The goals of ``band_of``, in metres."""
+    from rallysim.players import SIMPLE
+    from rallysim.train.goal_sweep import action_grid
+
+    return [float(g) for g in SIMPLE.goal.from_action(action_grid(BAND_POINTS, 1)).ravel()]
+
+
+def terms_of(doc: dict[str, Any]) -> tuple[float, float, str]:
+    """A probe seed's task terms (bonus, ready, incoming), as earlier probes' JSON gives them."""
+    return doc["bonus"], doc.get("ready", 0.0), doc.get("incoming", "serve")
 
 
 def add_bands(out: Path) -> None:
@@ -93,14 +106,14 @@ def report(out: Path, compare: Path | None) -> dict[str, Any]:
                    key=lambda r: r["seed"])
     if not seeds:
         raise SystemExit(f"no seed*.json in {out}")
-    terms = {(r["bonus"], r.get("ready", 0.0), r.get("incoming", "serve")) for r in seeds}
+    terms = {terms_of(r) for r in seeds}
     if len(terms) > 1:
         raise SystemExit(f"{out} holds seeds of several probes (bonus, ready, incoming): "
                          f"{sorted(terms)}")
     per_seed = {str(r["seed"]): r["hrl_mean"] for r in seeds}
     doc: dict[str, Any] = {
-        "bonus": seeds[0]["bonus"], "ready": seeds[0].get("ready", 0.0),
-        "incoming": seeds[0].get("incoming", "serve"), "per_seed": per_seed,
+        **dict(zip(("bonus", "ready", "incoming"), terms_of(seeds[0]), strict=True)),
+        "per_seed": per_seed,
         "pooled": asdict(estimate([np.array(r["lengths"]) for r in seeds], mean)),
         "worst_seed": min(per_seed.items(), key=lambda kv: kv[1]),
         "seeds_at_40_or_more": sum(v >= 40.0 for v in per_seed.values()),
@@ -108,7 +121,8 @@ def report(out: Path, compare: Path | None) -> dict[str, Any]:
     bands = {str(r["seed"]): r["band"] for r in seeds if "band" in r}
     if bands:  # the goals (2, 2.5, ..., 6 m) at which the low level sustains 40 hits or more
         doc["bands"] = bands
-        doc["band_goals_at_40"] = {s: [BAND_GOALS[i] for i, v in enumerate(b) if v >= 40.0]
+        goals = band_goals()
+        doc["band_goals_at_40"] = {s: [g for g, v in zip(goals, b, strict=True) if v >= 40.0]
                                    for s, b in bands.items()}
     if compare is not None:
         other = json.loads(compare.read_text())
@@ -153,7 +167,7 @@ def main(argv: list[str] | None = None) -> None:
         path = args.out / f"seed{seed}.json"
         if path.exists():
             done = json.loads(path.read_text())
-            terms = (done["bonus"], done.get("ready", 0.0), done.get("incoming", "serve"))
+            terms = terms_of(done)
             if terms != (args.bonus, args.ready, args.incoming):
                 raise SystemExit(f"{path} was played with (bonus, ready, incoming) {terms}: "
                                  f"use another --out")

@@ -49,9 +49,8 @@ def _where_run(results: dict[str, Any]) -> list[str]:
     them, and the low level's task options where the budget set any."""
     b, cap = results["budget"], results["cap"]
     if results.get("player") != "humanlike":
-        options = "".join(f"`{k}={v}`, " for k, v in b.get("low_extra", []))
-        line = (f"Low-level task options: {options[:-2]} (not the paper's task). "
-                if options else "")
+        options = ", ".join(f"`{k}={v}`" for k, v in b.get("low_extra", []))
+        line = f"Low-level task options: {options} (not the paper's task). " if options else ""
         line += numerics_line(results) if "numerics" in results else ""
         return [line.rstrip(), ""] if line else []
     command = "rallysim reproduce --player humanlike" + (
