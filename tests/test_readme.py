@@ -53,7 +53,7 @@ def _row(table_text: str, method: str) -> list[str]:
 @pytest.mark.parametrize("method", ["HRL", "Random High-level", "Monolithic"])
 def test_the_readme_results_are_the_committed_json(method):
     cap50 = json.loads((DATA / "reproduce_default.json").read_text())
-    cap1000 = json.loads((DATA / "reproduce_seeds5_cap1000.json").read_text())
+    cap1000 = json.loads((DATA / "reproduce_rally_shots_seeds10_cap1000.json").read_text())
     assert (cap50["cap"], cap1000["cap"]) == (50, 1000)
     mean = cap50["methods"][method]["mean"]
     paper = cap50["paper"]["table_vii"][method]["mean"]
@@ -91,7 +91,7 @@ def test_simple_return_v1_with_uniform_goals_plays_v0():
 @pytest.mark.parametrize("method", ["HRL", "Random High-level", "Monolithic"])
 def test_the_site_home_table_is_the_committed_json(method):
     cap50 = json.loads((DATA / "reproduce_default.json").read_text())
-    cap1000 = json.loads((DATA / "reproduce_seeds5_cap1000.json").read_text())
+    cap1000 = json.loads((DATA / "reproduce_rally_shots_seeds10_cap1000.json").read_text())
     expected = [method, f"{cap50['paper']['table_vii'][method]['mean']:.2f}",
                 f"{cap50['methods'][method]['mean']['value']:.2f}",
                 f"{cap1000['methods'][method]['mean']['value']:.2f}"]

@@ -29,11 +29,16 @@ def test_budgets_by_player():
         budget_named("scratch", "humanlike")
     with pytest.raises(ValueError, match="unknown player"):
         budget_named("default", "robot")
-    # a SIMPLE budget's stored settings are what runs before HUMAN-LIKE budgets wrote, so
-    # that their evaluations on disk are taken again
+    # a SIMPLE budget without low-stage options stores what runs before HUMAN-LIKE budgets
+    # wrote, so that their evaluations on disk are taken again; one with options stores them,
+    # so that a run of another recipe is not
     for b in BUDGETS.values():
         old = {k: v for k, v in asdict(b).items() if k not in ("player", "low_extra")}
+        if b.low_extra:
+            old |= {"player": "simple", "low_extra": [list(x) for x in b.low_extra]}
         assert b.settings() == old
+    assert BUDGETS["default"].overrides("low")["incoming"] == "mixed"
+    assert "incoming" not in BUDGETS["scratch"].overrides("low")  # the paper's task
     assert HUMANLIKE_BUDGETS["smoke"].settings()["low_extra"][0] == ["warm_start.decisions",
                                                                       8192]
 
