@@ -43,14 +43,15 @@ def test_spaces_and_sides():
 
 @pytest.mark.slow
 def test_reward_is_the_point_margin_and_deep_shots_win():
-    # goal 6 m (a = 1) beats the scripted controller; 3 m (a = -0.5) loses to it (seed 7:
-    # 90-29 and 17-133 over 60 turns of 16 games)
+    # goal 6 m (a = 1) beats the scripted controller; at 3 m (a = -0.5) the shipped low level
+    # and the scripted swing rally on and few points end (seed 7: 48-6 and 2-1 over 60 turns of
+    # 16 games)
     deep = _play(_env(), 1.0, 60)
     short = _play(_env(), -0.5, 60)
     for won, lost, total in (deep, short):
         assert total == won - lost
-    assert deep[0] / (deep[0] + deep[1]) > 0.65
-    assert short[0] / (short[0] + short[1]) < 0.25
+    assert deep[0] / (deep[0] + deep[1]) > 0.75 and deep[2] > 25
+    assert short[0] + short[1] < 15 and deep[2] > short[2] + 20
 
 
 @pytest.mark.slow
@@ -151,4 +152,4 @@ def test_golden_turns_against_a_mixed_pool():
                   info["decisions"], info["score"], info["opponent"]):
             h.update(np.ascontiguousarray(v).tobytes())
     h.update(str(env.decisions_simulated).encode())
-    assert h.hexdigest() == "bee63e2474c9f59d1c8368e9eb80e6859291ecec05d66500068d4e27dfba1450"
+    assert h.hexdigest() == "caafb4dc00dbae96a0aacf9dc12a47388c8283fcf15d10eef27570bc0d8a0764"

