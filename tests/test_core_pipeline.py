@@ -2,6 +2,7 @@
 serve strategies and the scoring rules (issue 16)."""
 
 import copy
+import functools
 import itertools
 import pickle
 from dataclasses import FrozenInstanceError
@@ -16,12 +17,14 @@ from rallysim.core.game import Game
 from rallysim.core.humanlike import HumanLikeBodies
 from rallysim.core.serve import (
     HUMANLIKE_SERVE_DRAWS,
+    Draw,
     FedShots,
     HumanLikeServe,
     MachineServe,
 )
 from rallysim.core.shuttle import make_shuttle_model
 from rallysim.core.state import SERVE, RallyState
+from rallysim.core.streams import Streams
 from rallysim.players import HUMANLIKE
 
 
@@ -136,9 +139,16 @@ def test_point_winner_and_game_over():
     assert rules.game_over(score, 21, 2, 30).tolist() == [True, False, True, False, True]
 
 
+def streams_of(*seeds: int) -> Draw:
+    """A serve's ``draw`` from one stream per seed (``default_rng(seed)``'s)."""
+    streams = Streams(len(seeds))
+    for g, s in enumerate(seeds):
+        streams.seed(np.array([g]), s)
+    return functools.partial(streams.random, np.arange(len(seeds)))
+
+
 def test_machine_serve_draws_its_uniforms_from_each_stream():
-    rngs = [np.random.default_rng(s) for s in (3, 4)]
-    pos, vel = MachineServe()(rngs, np.array([0, 1]))
+    pos, vel = MachineServe()(streams_of(3, 4), np.array([0, 1]))
     u = np.stack([np.random.default_rng(s).random(rules.SERVE_DRAWS) for s in (3, 4)])
     expected = rules.sample_serve(u, np.array([0, 1]))
     np.testing.assert_array_equal(pos, expected[0])
@@ -147,11 +157,11 @@ def test_machine_serve_draws_its_uniforms_from_each_stream():
 
 @pytest.mark.parametrize(("before", "after"), [(0, 0), (4, 0), (0, 4)])
 def test_humanlike_serve_keeps_the_unused_draws_in_their_place(before, after):
-    rng = np.random.default_rng(5)
-    pos, vel = HumanLikeServe(before, after)([rng], np.array([1]))
+    draw = streams_of(5)
+    pos, vel = HumanLikeServe(before, after)(draw, np.array([1]))
     ref = np.random.default_rng(5)
     u = ref.random(before + HUMANLIKE_SERVE_DRAWS + after)[before:before + 5][None]
-    assert rng.random() == ref.random()  # the stream moved on by every draw
+    assert draw(1)[0, 0] == ref.random()  # the stream moved on by every draw
     from rallysim.core.serve import sample_humanlike_serves
 
     p0, v0 = sample_humanlike_serves(u)
@@ -161,11 +171,10 @@ def test_humanlike_serve_keeps_the_unused_draws_in_their_place(before, after):
 
 def test_fed_shots_replace_the_machine_serve_in_their_share():
     always = FedShots(1.0)
-    rngs = [np.random.default_rng(s) for s in range(50)]
-    pos, _ = always(rngs, np.zeros(50, np.int64))
+    pos, _ = always(streams_of(*range(50)), np.zeros(50, np.int64))
     assert np.isin(pos[:, 0], always.bank()[:, 0]).all()
     half = FedShots(0.5)
-    pos, _ = half([np.random.default_rng(s) for s in range(400)], np.zeros(400, np.int64))
+    pos, _ = half(streams_of(*range(400)), np.zeros(400, np.int64))
     assert 0.35 < np.isin(pos[:, 0], half.bank()[:, 0]).mean() < 0.65
     with pytest.raises(ValueError, match="share"):
         FedShots(0.0)

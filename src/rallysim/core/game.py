@@ -9,6 +9,7 @@ physics and calls them. Views (the Gymnasium and PettingZoo envs) turn ``Game`` 
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import Any
 
@@ -26,6 +27,7 @@ from rallysim.core.lanes import ARRAYS, SCALARS, Ops
 from rallysim.core.serve import MachineServe, Serve
 from rallysim.core.shuttle import RADIUS, ShuttleState, make_shuttle_model
 from rallysim.core.state import RallyState
+from rallysim.core.streams import Streams
 
 __all__ = ["PHYSICS_DT", "PHYSICS_STEPS_PER_DECISION", "Events", "Game", "GameTrace",
            "validate_seed"]
@@ -84,9 +86,7 @@ class Game:
         self.shuttle = ShuttleState.zeros(n_envs)
         # One stream per environment, so that environment i of a batch seeded s replays a
         # single environment seeded s + i (Gymnasium's convention for vector seeds).
-        seed = validate_seed(seed)
-        self.rngs = [np.random.default_rng(None if seed is None else seed + i)
-                     for i in range(n_envs)]
+        self.streams = Streams(n_envs, validate_seed(seed))
         n, p = n_envs, n_players
         self.state = RallyState.zeros(n, p)
         self._active = np.ones(n, bool)
@@ -137,9 +137,7 @@ class Game:
     # -- episodes -------------------------------------------------------------------------------
     def seed(self, envs: np.ndarray, seed: int | None) -> None:
         """Restart the random streams of ``envs``: env ``envs[j]`` gets ``seed + j``."""
-        seed = validate_seed(seed)
-        for j, e in enumerate(np.asarray(envs)):
-            self.rngs[e] = np.random.default_rng(None if seed is None else seed + j)
+        self.streams.seed(envs, validate_seed(seed))
 
     def seed_each(self, seeds: list[int]) -> None:
         """Restart env e's random stream at ``seeds[e]`` (a vector env's per-env seeds)."""
@@ -161,7 +159,7 @@ class Game:
         if base_x is None:
             base_x = np.full((k, self.n_players), -2.7)
         self.bodies.reset(envs, base_x, theta, **body)
-        self._launch(envs, *self.serve([self.rngs[e] for e in envs], receiver))
+        self._launch(envs, *self.serve(functools.partial(self.streams.random, envs), receiver))
         rules.start_rally(self.state, envs, receiver)
 
     def _launch(self, envs: np.ndarray, pos: np.ndarray, vel: np.ndarray) -> None:

@@ -2,13 +2,14 @@
 
 A ``Game`` holds one (the machine serve of docs/reference.md §4.3 unless told otherwise) and asks
 it once per ``Game.reset``; nothing overwrites the shuttle afterwards. A strategy draws its
-uniforms from each served game's own random stream, so the order of draws within a stream is
-part of its behaviour: every strategy here keeps the order of v0's seeded episodes.
+uniforms from each served game's own random stream (``draw(k)``: k from each), so the order of
+draws within a stream is part of its behaviour: every strategy here keeps the order of v0's
+seeded episodes.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -16,19 +17,15 @@ import numpy as np
 
 from rallysim.core import rules
 
-Rngs = Sequence[np.random.Generator]
+# ``draw(m)``: (k, m) uniforms in [0, 1), the next m of each of the k served games' streams
+Draw = Callable[[int], np.ndarray]
 
 
 class Serve(Protocol):
-    """``serve(rngs, receiver)``: world positions and velocities, (k, 3) each, of the shuttles
-    served toward ``receiver`` (k,) players, drawn from the k served games' streams ``rngs``."""
+    """``serve(draw, receiver)``: world positions and velocities, (k, 3) each, of the shuttles
+    served toward ``receiver`` (k,) players, drawn from the k served games' streams (``draw``)."""
 
-    def __call__(self, rngs: Rngs, receiver: np.ndarray) -> tuple[np.ndarray, np.ndarray]: ...
-
-
-def _uniforms(rngs: Rngs, k: int) -> np.ndarray:
-    """(len(rngs), k) uniforms in [0, 1), ``k`` from each stream."""
-    return np.stack([r.random(k) for r in rngs]).reshape(len(rngs), k)
+    def __call__(self, draw: Draw, receiver: np.ndarray) -> tuple[np.ndarray, np.ndarray]: ...
 
 
 def _to_receiver(pos: np.ndarray, vel: np.ndarray, receiver: np.ndarray) -> None:
@@ -44,9 +41,8 @@ class MachineServe:
     """docs/reference.md §4.3: the machine serve from the far side (``rules.sample_serve``), drawing
     ``rules.SERVE_DRAWS`` uniforms per game."""
 
-    def __call__(self, rngs: Rngs, receiver: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        u = np.array([r.random(rules.SERVE_DRAWS) for r in rngs])
-        return rules.sample_serve(u, receiver)
+    def __call__(self, draw: Draw, receiver: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return rules.sample_serve(draw(rules.SERVE_DRAWS), receiver)
 
 
 # docs/reference.md §10: the HUMAN-LIKE serve, in the receiver's own frame.
@@ -85,19 +81,12 @@ class HumanLikeServe:
     unused_before: int = 0
     unused_after: int = 0
 
-    def __call__(self, rngs: Rngs, receiver: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        u = np.stack([self._draw(r) for r in rngs]).reshape(len(rngs), HUMANLIKE_SERVE_DRAWS)
-        pos, vel = sample_humanlike_serves(u)
+    def __call__(self, draw: Draw, receiver: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        first = self.unused_before
+        u = draw(first + HUMANLIKE_SERVE_DRAWS + self.unused_after)
+        pos, vel = sample_humanlike_serves(u[:, first:first + HUMANLIKE_SERVE_DRAWS])
         _to_receiver(pos, vel, receiver)
         return pos, vel
-
-    def _draw(self, rng: np.random.Generator) -> np.ndarray:
-        if self.unused_before:
-            rng.random(self.unused_before)
-        u = rng.random(HUMANLIKE_SERVE_DRAWS)
-        if self.unused_after:
-            rng.random(self.unused_after)
-        return u
 
 
 class FedShots:
@@ -114,9 +103,9 @@ class FedShots:
         self.share = share
         self._bank: np.ndarray | None = None  # loaded on the first serve
 
-    def __call__(self, rngs: Rngs, receiver: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        pos, vel = MachineServe()(rngs, receiver)
-        u = _uniforms(rngs, 2)
+    def __call__(self, draw: Draw, receiver: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        pos, vel = MachineServe()(draw, receiver)
+        u = draw(2)
         take = u[:, 0] < self.share  # (always, for a share of 1: u < 1)
         if take.any():
             bank = self.bank()

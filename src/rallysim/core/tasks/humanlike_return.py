@@ -51,7 +51,7 @@ class HumanLikeReturnTask:
         given = self.reset_options(options, k)
         # One draw per environment from its own stream, whatever the options say, so that
         # an option changes only the value it sets; then the serve's (``SERVE``).
-        u = np.stack([game.rngs[e].random(N_DRAWS) for e in envs]).reshape(k, N_DRAWS)
+        u = game.streams.random(envs, N_DRAWS)
         lo, hi = HIPS_START[:, 0], HIPS_START[:, 1]
         hips = given.get("hips_position", lo + u[:, 0:2] * (hi - lo))
         self.goal[envs] = given.get("target_velocity", sample_targets(u[:, 2:5]))

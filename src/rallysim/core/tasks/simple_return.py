@@ -88,9 +88,12 @@ class ReturnTask:
         given = self.reset_options(options, len(envs))
         # The same draws whatever the options say, so an option changes only what it sets:
         # the start here, the serve's (the game's serve strategy), then the goal.
-        rngs = [self.game.rngs[e] for e in envs]
-        base_x = given.get("base_x", np.array([r.uniform(*b.base_range) for r in rngs]))
-        theta = given.get("arm_angle", np.array([r.uniform(-limit, limit) for r in rngs]))
+        streams = self.game.streams
+        # (lo + (hi - lo) * u: NumPy's Generator.uniform(lo, hi), bit for bit)
+        u = streams.random(envs, 2)
+        (b_lo, b_hi), t_lo = b.base_range, -limit
+        base_x = given.get("base_x", b_lo + (b_hi - b_lo) * u[:, 0])
+        theta = given.get("arm_angle", t_lo + (limit - t_lo) * u[:, 1])
         # the original builds: robots stay where the last episode left them
         carry = None
         if self.keep_bodies and not given:
@@ -103,10 +106,11 @@ class ReturnTask:
             b.omega[carry, 0] = omega
         self._started[envs] = True
         # (drawn even when the option gives the goal, so that the stream does not shift)
+        u = streams.random(envs, 1)[:, 0]
         if self.goals == "uniform":
-            drawn = np.array([r.uniform(*self.depth_range) for r in rngs])
+            d_lo, d_hi = self.depth_range
+            drawn = d_lo + (d_hi - d_lo) * u
         else:
-            u = np.array([r.uniform() for r in rngs])
             drawn = None if "target_depth" in given else self._reachable_goals(envs, u)
         self.goal[envs] = given.get("target_depth", drawn)
         self.elapsed[envs] = 0
