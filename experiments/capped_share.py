@@ -10,8 +10,8 @@ before the second hit as it finishes (a rerun skips the seeds already in ``--jso
 
     python -m experiments.capped_share --runs results/runs --seeds 0,1,2 --json capped.json
 
-docs/research-log/reproduce.md ("The 90 % check on 2,000 rallies") quotes a run of it on the
-10-seed study.
+docs/results.md ("Where rallies are lost: the first exchange") quotes a run of it on the
+10-seed studies under both numeric settings.
 """
 
 from __future__ import annotations

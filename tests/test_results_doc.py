@@ -264,6 +264,29 @@ def test_the_10_seed_studies_meet_the_issue_targets():
     assert f"are {min(finals):.2f}-{max(finals):.2f} (" in log
 
 
+def test_the_capped_shares_on_2000_rallies_match_their_json():
+    """results.md quotes, per setting, the seeds whose share of 2,000 HRL rallies reaching the
+    cap lies below 90 % with its whole interval, and how many lie above it that way."""
+    text = DOC.read_text()
+    for name in ("capped_share_seeds10", "capped_share_seeds10_generic"):
+        seeds = json.loads((DATA / f"{name}.json").read_text())
+        assert sorted(seeds, key=int) == [str(s) for s in range(10)]
+        assert {v["rallies"] for v in seeds.values()} == {2000}
+        for seed, v in seeds.items():
+            share = v["capped_share"]
+            assert share["value"] == v["capped"] / 2000
+            if share["high"] < 0.9:
+                cell = (f"seed {seed}: {100 * share['value']:.1f} % [{100 * share['low']:.1f}, "
+                        f"{100 * share['high']:.1f}]")
+                assert cell in text, cell
+        above = sum(v["capped_share"]["low"] > 0.9 for v in seeds.values())
+        below = sum(v["capped_share"]["high"] < 0.9 for v in seeds.values())
+        assert f"{below} below, {above} above" in text
+    seed0 = json.loads((DATA / "capped_share_seeds10_generic.json").read_text())["0"]
+    c = seed0["capped_share"]
+    assert f"takes {100 * c['value']:.1f} % [{100 * c['low']:.1f}, {100 * c['high']:.1f}]" in text
+
+
 def test_the_second_cpus_fingerprints_match_what_the_numerics_page_says():
     """docs/numerics.md: on the AVX-512 EPYC, pinned and candidate training equal the committed
     fingerprints for every stage; native only for low and mono."""
