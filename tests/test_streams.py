@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import copy
 import pickle
+import platform
 
 import numpy as np
 import pytest
@@ -58,3 +59,26 @@ def test_empty_draws_move_nothing():
     assert streams.random(np.arange(2), 0).shape == (2, 0)
     np.testing.assert_array_equal(streams.random(np.arange(2), 1)[:, 0],
                                   [np.random.default_rng(s).random() for s in (0, 1)])
+
+
+def test_bad_indices_are_refused_before_anything_is_drawn():
+    streams = Streams(2, 0)
+    before = streams.state.copy()
+    for bad in (np.array([2]), np.array([-1]), np.array([True, False]), np.zeros((1, 1), int),
+                np.array([0.5])):
+        with pytest.raises(IndexError):
+            streams.random(bad, 2)
+        with pytest.raises(IndexError):
+            streams.seed(bad, 3)
+    np.testing.assert_array_equal(streams.state, before)
+
+
+@pytest.mark.skipif(platform.machine() not in ("x86_64", "AMD64"),
+                    reason="NumPy's C may fuse its uniform into an FMA on other CPUs")
+def test_the_tasks_uniform_is_numpys():
+    """The tasks draw a uniform in [lo, hi) as lo + (hi - lo) * u, which is
+    ``Generator.uniform(lo, hi)``'s value where NumPy does not fuse it (x86-64)."""
+    for lo, hi in ((-6.5, -2.44), (-1.3, 1.3), (2.0, 6.0), (0.0, 1.0)):
+        a, b = np.random.default_rng(9), np.random.default_rng(9)
+        u = a.random(10_000)
+        np.testing.assert_array_equal(lo + (hi - lo) * u, [b.uniform(lo, hi) for _ in u])

@@ -4,8 +4,8 @@ Game i of a batch seeded s replays a single game seeded s + i, so every game dra
 stream of its own: NumPy's ``default_rng(s + i)``, a PCG64 generator. Held as N NumPy
 ``Generator`` objects, a batch's resets called into NumPy once per game and draw site.
 ``Streams`` keeps the N generators' states in one array instead, and draws doubles for any set
-of games in one compiled call, bit for bit what ``Generator.random`` gives from the same state
-(tested): PCG64's 128-bit step and XSL-RR output, and NumPy's 53-bit double.
+of games in one compiled call per draw site, bit for bit what ``Generator.random`` gives from
+the same state (tested): PCG64's 128-bit step and XSL-RR output, and NumPy's 53-bit double.
 """
 
 from __future__ import annotations
@@ -72,7 +72,7 @@ class Streams:
 
     def seed(self, games: np.ndarray, seed: int | None) -> None:
         """Restart the streams of ``games``: ``games[j]`` as ``default_rng(seed + j)``."""
-        for j, g in enumerate(np.asarray(games, np.int64)):
+        for j, g in enumerate(self._indices(games)):
             s = np.random.PCG64(None if seed is None else seed + j).state["state"]
             self.state[g] = [s["state"] >> 64, s["state"] & _MASK64,
                              s["inc"] >> 64, s["inc"] & _MASK64]
@@ -80,11 +80,23 @@ class Streams:
     def random(self, games: np.ndarray, k: int) -> np.ndarray:
         """(len(games), k) doubles in [0, 1): ``k`` from each of the streams ``games`` (distinct
         indices), as ``Generator.random(k)`` draws them."""
-        games = np.asarray(games, np.int64)
+        games = self._indices(games)
         out = np.empty((len(games), k))
         if len(games) and k:
             _compiled()(self.state, games, out)
         return out
+
+    def _indices(self, games: np.ndarray) -> np.ndarray:
+        """``games`` as int64 indices, ``IndexError`` unless each names a stream (the compiled
+        draw does not check, and would write past the array)."""
+        a = np.asarray(games)
+        if a.ndim != 1 or (a.size and a.dtype.kind not in "iu"):
+            raise IndexError(f"games must be a 1-D array of stream indices, got {a!r}")
+        a = np.ascontiguousarray(a, np.int64)
+        if a.size and (a.min() < 0 or a.max() >= len(self.state)):
+            raise IndexError(f"stream index out of range for {len(self.state)} streams: "
+                             f"{a[(a < 0) | (a >= len(self.state))][:5].tolist()}")
+        return a
 
     def generator(self, game: int) -> np.random.Generator:
         """A NumPy ``Generator`` that goes on from stream ``game``'s present state (a copy:

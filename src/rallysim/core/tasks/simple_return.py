@@ -89,7 +89,8 @@ class ReturnTask:
         # The same draws whatever the options say, so an option changes only what it sets:
         # the start here, the serve's (the game's serve strategy), then the goal.
         streams = self.game.streams
-        # (lo + (hi - lo) * u: NumPy's Generator.uniform(lo, hi), bit for bit)
+        # (lo + (hi - lo) * u: the bits of NumPy's Generator.uniform(lo, hi) wherever NumPy's C
+        # does not fuse it into one FMA, as on x86-64; the goldens were recorded this way)
         u = streams.random(envs, 2)
         (b_lo, b_hi), t_lo = b.base_range, -limit
         base_x = given.get("base_x", b_lo + (b_hi - b_lo) * u[:, 0])
