@@ -35,6 +35,9 @@ def _doubles_with(mulhi):
     def doubles(state, games, out):  # compiled by Numba
         one, s11, s58 = np.uint64(1), np.uint64(11), np.uint64(58)
         s63, s64 = np.uint64(63), np.uint64(64)
+        for i in range(games.shape[0]):  # (Numba does not check indices: every one first)
+            if games[i] < 0 or games[i] >= state.shape[0]:
+                raise IndexError("stream index out of range")
         for i in range(games.shape[0]):
             g = games[i]
             hi, lo, inc_hi, inc_lo = state[g, 0], state[g, 1], state[g, 2], state[g, 3]
@@ -72,7 +75,10 @@ class Streams:
 
     def seed(self, games: np.ndarray, seed: int | None) -> None:
         """Restart the streams of ``games``: ``games[j]`` as ``default_rng(seed + j)``."""
-        for j, g in enumerate(self._indices(games)):
+        games = self._indices(games)
+        if games.size and (games.min() < 0 or games.max() >= len(self.state)):
+            raise IndexError(self._out_of_range(games))
+        for j, g in enumerate(games):
             s = np.random.PCG64(None if seed is None else seed + j).state["state"]
             self.state[g] = [s["state"] >> 64, s["state"] & _MASK64,
                              s["inc"] >> 64, s["inc"] & _MASK64]
@@ -83,20 +89,24 @@ class Streams:
         games = self._indices(games)
         out = np.empty((len(games), k))
         if len(games) and k:
-            _compiled()(self.state, games, out)
+            try:
+                _compiled()(self.state, games, out)
+            except IndexError:
+                raise IndexError(self._out_of_range(games)) from None
         return out
 
     def _indices(self, games: np.ndarray) -> np.ndarray:
-        """``games`` as int64 indices, ``IndexError`` unless each names a stream (the compiled
-        draw does not check, and would write past the array)."""
+        """``games`` as contiguous int64 indices; ``IndexError`` for anything but a 1-D array
+        of integers (a mask is not indices). Their range is checked where they are used."""
         a = np.asarray(games)
         if a.ndim != 1 or (a.size and a.dtype.kind not in "iu"):
             raise IndexError(f"games must be a 1-D array of stream indices, got {a!r}")
-        a = np.ascontiguousarray(a, np.int64)
-        if a.size and (a.min() < 0 or a.max() >= len(self.state)):
-            raise IndexError(f"stream index out of range for {len(self.state)} streams: "
-                             f"{a[(a < 0) | (a >= len(self.state))][:5].tolist()}")
-        return a
+        return np.ascontiguousarray(a, np.int64)
+
+    def _out_of_range(self, games: np.ndarray) -> str:
+        n = len(self.state)
+        return (f"stream index out of range for {n} streams: "
+                f"{games[(games < 0) | (games >= n)][:5].tolist()}")
 
     def generator(self, game: int) -> np.random.Generator:
         """A NumPy ``Generator`` that goes on from stream ``game``'s present state (a copy:
