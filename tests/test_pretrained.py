@@ -97,3 +97,34 @@ def test_shipped_humanlike_low_rl_is_scored_like_the_clone(tmp_path):
     # about one hit (1.10 over 300 rallies), against 33.2 for the cloned pair
     assert data["policies"]["high"] == "humanlike_high_rl"
     assert data["rally"]["mean"]["value"] < 2.0
+
+
+def _strict(text: str) -> dict:
+    """``json.loads`` that refuses NaN and infinities, as strict JSON readers do."""
+    def refuse(name: str) -> None:
+        raise ValueError(f"not JSON: {name}")
+    return json.loads(text, parse_constant=refuse)
+
+
+def test_shipped_policy_files_are_strict_json_and_name_their_source():
+    from rallysim.policies.registry import PRETRAINED
+
+    files = sorted(PRETRAINED.glob("*.json"))
+    assert len(files) >= 8
+    for f in files:
+        meta = _strict(f.read_text())["metadata"]
+        assert isinstance(meta.get("source"), str) and meta["source"], f.name
+
+
+def test_an_undefined_rate_in_metadata_is_written_as_null(tmp_path):
+    from gymnasium import spaces
+
+    from rallysim.train.export import write_policy
+
+    box = spaces.Box(-1.0, 1.0, (2,), np.float32)
+    layers = [(np.zeros((3, 2)), np.zeros(3)), (np.zeros((2, 3)), np.zeros(2))]
+    _, path = write_policy(layers, "tanh", np.zeros(2), box, box, tmp_path / "p",
+                           metadata={"rate": float("nan"), "rows": [1.0, float("inf")],
+                                     "kept": 0.5})
+    meta = _strict(path.read_text())["metadata"]
+    assert meta == {"rate": None, "rows": [1.0, None], "kept": 0.5}

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import errno
 import json
+import math
 import os
 import stat
 from pathlib import Path
@@ -12,6 +13,19 @@ from typing import Any
 
 TYPE_NAMES = {dict: "object", list: "list", str: "string", bool: "boolean", int: "integer",
               float: "number", type(None): "null"}
+
+
+def jsonable(value: Any) -> Any:
+    """``value`` with every non-finite float (an undefined rate: NaN) as None, through dicts,
+    lists and tuples: JSON has no NaN, and ``json.dumps`` would write one that strict readers
+    refuse."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: jsonable(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [jsonable(v) for v in value]
+    return value
 
 
 def type_name(value: Any) -> str:

@@ -238,7 +238,7 @@ def _evaluate_two(args: argparse.Namespace) -> dict:
     """Games of the first player against the second; their summary and the settings."""
     from rallysim.eval.agents import agent
     from rallysim.eval.competitive import play_games, summarise
-    from rallysim.eval.crossplay import jsonable
+    from rallysim.jsondoc import jsonable
 
     a, b = args.players
     games = args.games or COMPETITIVE_GAMES

@@ -32,6 +32,7 @@ import numpy as np
 
 from rallysim.eval.agents import agent
 from rallysim.eval.competitive import DEFAULT_MAX_DECISIONS, Games, play_games, summarise
+from rallysim.jsondoc import jsonable
 
 Say = Callable[[str], None]
 Cell = dict[str, float] | None
@@ -102,7 +103,7 @@ def matrix(names: list[str], played: dict[tuple[str, str], Games], games: int, s
     ratings are ``ratings`` (a ``Ratings``) when given, else those of all the points played
     (``rate_points``, every player moving)."""
     # here, not at the top: openskill is in the train extra, and two players' games (which
-    # import jsonable from here) must not need it
+    # import this module) must not need it
     from rallysim.eval.ratings import Ratings, rate_points
 
     n = len(names)
@@ -161,16 +162,6 @@ def _cell(e: dict[str, float]) -> Cell:
 def _mirror(e: dict[str, float]) -> Cell:
     """The other side's share: 1 - value, and the interval mirrored (low <-> high)."""
     return _cell({"value": 1.0 - e["value"], "low": 1.0 - e["high"], "high": 1.0 - e["low"]})
-
-
-def jsonable(value: Any) -> Any:
-    """``value`` with every non-finite float (an undefined rate: NaN) as None: JSON has no
-    NaN, and ``json.dumps`` would write one that strict readers refuse."""
-    if isinstance(value, float):
-        return value if math.isfinite(value) else None
-    if isinstance(value, dict):
-        return {k: jsonable(v) for k, v in value.items()}
-    return value
 
 
 def heatmap_size(n_players: int) -> tuple[int, int]:

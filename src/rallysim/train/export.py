@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 from safetensors.numpy import save_file
 
+from rallysim.jsondoc import jsonable
 from rallysim.policies.mlp import FORMAT, FORMAT_VERSION, MLPPolicy, policy_paths, sha256_file
 from rallysim.train.checkpoint import json_default
 
@@ -111,7 +112,7 @@ def write_policy(layers: Layers, activation: str, log_std: np.ndarray, obs_space
                    "low": np.asarray(act_space.low, float).tolist(),
                    "high": np.asarray(act_space.high, float).tolist(),
                    "deterministic": "mean of a diagonal Gaussian, clipped to [low, high]"},
-        "metadata": metadata or {},
+        "metadata": jsonable(metadata or {}),
     }
     weights_path, json_path = policy_paths(path_prefix)
     weights_path.parent.mkdir(parents=True, exist_ok=True)
