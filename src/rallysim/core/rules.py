@@ -1,11 +1,9 @@
-"""The rulebook (docs/reference.md §3-7): the rule set, serve, the tested boxes, the start of a
-rally and scoring.
+"""The rulebook (docs/reference.md §3-7): the rule set, serve, the tested boxes and scoring.
 
-Functions over batched arrays, shared by every player model and every API view:
-``start_rally`` changes a ``RallyState`` in place, the others return new arrays. What happens
-within a physics step (the swept overlap test, hits, net touches, landings, in/out and
-arming) is judged by the compiled steps (``rallysim.core.kernels.step``); docs/design.md lists
-which rule lives where.
+Functions over batched arrays, shared by every player model and every API view, returning new
+arrays. The start of a rally and what happens within a physics step (the swept overlap test,
+hits, net touches, landings, in/out and arming) are the compiled steps'
+(``rallysim.core.kernels.step``); docs/design.md lists which rule lives where.
 Positions are metres; a player's *own frame* is the world frame for player 0 and the world
 rotated 180 degrees about z for player 1 (``FORWARD[p]`` is the sign that maps x and y between
 them).
@@ -22,7 +20,6 @@ import numpy as np
 from rallysim.core import native
 from rallysim.core.court import Court
 from rallysim.core.shuttle import ShuttleModel
-from rallysim.core.state import SERVE, RallyState
 
 FORWARD = np.array([1.0, -1.0])  # own-frame x (and y) = FORWARD[p] * world x (and y)
 BIG = 1e9  # "unbounded" for box sides; finite so that 0 * BIG stays 0
@@ -69,19 +66,6 @@ class Rules:
     @property
     def net_blocks(self) -> bool:
         return self.net == NET_BLOCK
-
-
-# -- the rally's state (rallysim.core.state) ----------------------------------------------------
-def start_rally(state: RallyState, envs: np.ndarray, receiver: np.ndarray) -> None:
-    """A serve in games ``envs`` toward ``receiver`` (len(envs),): in play, only the receiver
-    armed, nobody has hit, no net touch."""
-    state.in_play[envs] = True
-    state.armed[envs] = False
-    state.armed[envs, receiver] = True
-    state.has_hit[envs] = False
-    state.last_hitter[envs] = SERVE
-    state.hits[envs] = 0
-    state.net_touched[envs] = False
 
 
 def landing_side(point: np.ndarray) -> np.ndarray:

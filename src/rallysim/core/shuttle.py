@@ -53,13 +53,6 @@ class ShuttleState:
     def zeros(cls, n: int) -> ShuttleState:
         return cls(np.zeros((n, 3)), np.zeros((n, 3)), np.zeros(n), np.zeros(n))
 
-    def shot(self, mask: np.ndarray) -> None:
-        """Record a serve or hit for the shuttles in ``mask`` (after their velocity was set)."""
-        v = self.vel[mask]
-        # np.linalg.norm(v, axis=1)'s own operations, without its checks (this runs per serve)
-        self.shot_speed[mask] = np.sqrt(np.add.reduce(v * v, axis=1))
-        self.shot_time[mask] = 0.0
-
 
 class ShuttleModel:
     """A flight model: its numbers for ``fly``."""

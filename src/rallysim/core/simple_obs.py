@@ -60,15 +60,16 @@ def player_observations(game: Game) -> np.ndarray:
                         PLAYER_OBS_SCALE)
 
 
-def observations(game: Game, extra: np.ndarray, centre: np.ndarray, scale: np.ndarray
-                 ) -> np.ndarray:
+def observations(game: Game, extra: np.ndarray, centre: np.ndarray, scale: np.ndarray,
+                 rows: np.ndarray | None = None, out: np.ndarray | None = None) -> np.ndarray:
     """(N, P, 16 + X) float32: every player's 16 values followed by ``extra`` (N, P, X) float64,
-    each mapped by (value - centre) / scale and clipped into [-1, 1] (NaN stays NaN). The one
+    each mapped by (value - centre) / scale and clipped into [-1, 1] (NaN stays NaN); with
+    ``rows`` (game indices) and ``out``, only those games' rows of ``out`` are written. The one
     implementation of the SIMPLE observation, for the low-level task and the rally."""
     if not isinstance(game.bodies, SimpleBodies):
         raise TypeError(f"the SIMPLE observation needs SIMPLE players, not "
                         f"{type(game.bodies).__name__}")
-    return kernels.observations(game, extra, centre, scale)
+    return kernels.observations(game, extra, centre, scale, rows, out)
 
 
 def opponent_positions(game: Game) -> np.ndarray:

@@ -2,9 +2,8 @@
 
 A task object (``ReturnTask``, ``HumanLikeReturnTask``) holds N = 1 game and answers
 ``reset(units, options)``, ``outcome(actions) -> (reward, terminated, truncated, info values)``
-(the vector envs' ``step`` before its values become arrays: for one game, Python numbers
-where they are numbers), ``observe()`` and ``goal``; this class adds Gymnasium's single-env
-conventions on top.
+(the vector envs' ``step`` before their vector-only info keys, as arrays), ``observe()`` and
+``goal``; this class adds Gymnasium's single-env conventions on top.
 """
 
 from __future__ import annotations
@@ -26,9 +25,7 @@ def box_spaces(obs_size: int, action_size: int) -> tuple[spaces.Box, spaces.Box]
 
 
 def _first(v: Any) -> Any:
-    """Environment 0's value of a lane or array: a Python scalar, or a copy of its row."""
-    if not isinstance(v, np.ndarray):
-        return v
+    """Environment 0's value of an array: a Python scalar, or a copy of its row."""
     return v.item(0) if v.ndim == 1 else v[0].copy()
 
 
@@ -81,7 +78,6 @@ class TaskEnv(gym.Env):
         if self._done:
             raise RuntimeError("the episode has ended (or never began): call reset() first")
         a = validate_action_row(action, self.action_space.shape)
-        # the task's values as lanes: Python numbers for its one game (rallysim.core.lanes)
         reward, term, trunc, values = self.task.outcome(a)
         terminated, truncated = bool(_first(term)), bool(_first(trunc))
         self._done = terminated or truncated

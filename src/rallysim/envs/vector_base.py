@@ -84,6 +84,11 @@ class NativeVectorEnv(VectorEnv):
     def _reset_info(self) -> dict:
         return {}
 
+    def _observe_again(self, obs: np.ndarray, units: np.ndarray) -> np.ndarray:
+        """The observation after ``units`` were reset, given ``obs`` from before (which
+        it may update in place)."""
+        return self._observe()
+
     def _restart(self, units: np.ndarray, options: dict | None) -> None:
         self._reset_units(units, options)
         for u in units:
@@ -156,8 +161,9 @@ class NativeVectorEnv(VectorEnv):
                                   for key, v in info.items() if not key.startswith(
                                       ("final", "_final"))}
             info["_final_info"] = slot_done.copy()
-            self._restart(np.flatnonzero(done), None)
-            obs = self._observe()
+            units = np.flatnonzero(done)
+            self._restart(units, None)
+            obs = self._observe_again(obs, units)
         else:
             self._needs_reset = done
         return obs, reward, np.repeat(term, k), np.repeat(trunc, k), info
@@ -210,6 +216,9 @@ class TaskVectorEnv(NativeVectorEnv):
 
     def _observe(self) -> np.ndarray:
         return self.task.observe()
+
+    def _observe_again(self, obs: np.ndarray, units: np.ndarray) -> np.ndarray:
+        return self.task.observe(units, obs)
 
     def _frame(self, view: Any, env: int) -> np.ndarray | None:
         raise NotImplementedError

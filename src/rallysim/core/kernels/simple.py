@@ -86,18 +86,19 @@ def _observations_with(njit: Callable, sin: Callable, cos: Callable) -> Callable
     """Every player's observation in each of N games, compiled: the 16 values of
     ``simple_obs.PLAYER_OBS`` in the player's own frame, then ``extra[e, j]``, each mapped by
     (x - centre) / scale and clipped into [-1, 1] as ``np.clip`` clips (NaN stays NaN),
-    written into ``out`` (N, P, 16 + X)."""
+    written into ``out`` (N, P, 16 + X) for the games ``rows``."""
 
     # (NumPy's error model: a zero scale gives inf or NaN, as the arrays do)
     @njit(error_model="numpy")
-    def observations(theta_a, omega_a, base_x, fwd, m, extra, base_z, fo, centre, scale, out):
-        n, p = theta_a.shape
+    def observations(theta_a, omega_a, base_x, fwd, m, extra, base_z, fo, centre, scale, rows,
+                     out):
+        p = theta_a.shape[1]
         n_extra = extra.shape[2]
         size = 16 + n_extra
         if out.shape[2] != size or centre.size != size or scale.size != size:
             raise ValueError("the observation's maps must have one entry per value")
         raw = np.empty(size)
-        for e in range(n):
+        for e in rows:
             for j in range(p):
                 theta, omega, f = theta_a[e, j], omega_a[e, j], fwd[e, j]
                 s, c = sin(theta), cos(theta)
@@ -160,12 +161,16 @@ class SimpleKernel(step.GameKernel):
                     face_offset=float(b.face_offset), pivot_z=float(b.pivot_z))
 
 
-def observations(game: Any, extra: np.ndarray, centre: np.ndarray, scale: np.ndarray
-                 ) -> np.ndarray:
+def observations(game: Any, extra: np.ndarray, centre: np.ndarray, scale: np.ndarray,
+                 rows: np.ndarray | None = None, out: np.ndarray | None = None) -> np.ndarray:
     """Every SIMPLE player's observation followed by ``extra`` (N, P, X), scaled, clipped,
-    float32 (N, P, 16 + X) (``_observations_with``)."""
+    float32 (N, P, 16 + X) (``_observations_with``); with ``rows`` and ``out``, only those
+    games', written into ``out``."""
     b = game.bodies
-    out = np.empty((*b.theta.shape, 16 + extra.shape[2]), np.float32)
+    if out is None:
+        out = np.empty((*b.theta.shape, 16 + extra.shape[2]), np.float32)
+    if rows is None:
+        rows = game.every_env
     # (only the arrays it reads: each array passed costs the call some time)
     return Compiled.get()[1](b.theta, b.omega, b.base_x, b.forward, game.shuttle.motion, extra,
-                             b.base_z, b.face_offset, centre, scale, out)
+                             b.base_z, b.face_offset, centre, scale, rows, out)

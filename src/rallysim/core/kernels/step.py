@@ -36,6 +36,7 @@ from rallysim.core.shuttle import (
     PaperShuttle,
     flight_with,
 )
+from rallysim.core.state import SERVE
 
 # the flight models the steps fly (``ShuttleModel.code``)
 FLIGHTS = (PaperShuttle, PaperAlg1Shuttle, AeroShuttle)
@@ -144,9 +145,10 @@ class Pieces(NamedTuple):
     shot: Callable
 
 
-def steps_with(njit: Callable, pieces: Pieces) -> tuple[Callable, Callable]:
-    """The compiled steps and ``refresh`` of games of the kind of ``pieces``. The helpers are
-    inlined where they are called, and those run per game take only the arrays they use."""
+def steps_with(njit: Callable, pieces: Pieces) -> tuple[Callable, Callable, Callable]:
+    """The compiled steps, ``refresh`` and ``restart`` of games of the kind of ``pieces``. The
+    helpers are inlined where they are called, and those run per game take only the arrays
+    they use."""
     inline = njit(inline="always")
     move, face_point, racket, shot = pieces
     substeps, fly = flight_with(njit)
@@ -360,6 +362,33 @@ def steps_with(njit: Callable, pieces: Pieces) -> tuple[Callable, Callable]:
             step(model, data, a, ev, k, n, p, s)
 
     @njit
+    def restart(a, constants, envs, receiver, pos, vel):
+        """Rallies start in games ``envs``: each shuttle is served from world ``pos`` at ``vel``
+        (each (k, 3)) toward ``receiver`` (k,): in play, only the receiver armed, nobody has
+        hit, no shot counted, no net touch; the shot's speed and time are set, and what the
+        next physics step starts from is recomputed for these games (``refresh``)."""
+        k = constants[0]
+        p = a.fwd.shape[1]
+        m = a.motion
+        for i in range(envs.shape[0]):
+            e = envs[i]
+            for axis in range(3):
+                m[axis, e], m[3 + axis, e] = pos[i, axis], vel[i, axis]
+            vx, vy, vz = vel[i, 0], vel[i, 1], vel[i, 2]
+            a.shot_speed[e] = math.sqrt((vx * vx + vy * vy) + vz * vz)
+            a.shot_time[e] = 0.0
+            a.in_play[e] = True
+            for j in range(p):
+                a.armed[e, j] = j == receiver[i]
+                a.has_hit[e, j] = False
+            a.last_hitter[e] = SERVE
+            a.hits[e] = 0
+            a.net_touched[e] = False
+            observe(a, k, e, p)
+            for j in range(p):
+                a.gap[e, j] = abs(a.fwd[e, j] * m[0, e] - a.base_x[e, j])
+
+    @njit
     def refresh(a, constants):
         """What the next physics step starts from, after the state was set by hand
         (``Game._refresh``): the shuttle in each face's frame and the bases' x-distances to
@@ -372,7 +401,7 @@ def steps_with(njit: Callable, pieces: Pieces) -> tuple[Callable, Callable]:
             for j in range(p):
                 a.gap[e, j] = abs(fwd[e, j] * m[0, e] - base_x[e, j])
 
-    return steps_of, refresh
+    return steps_of, refresh, restart
 
 
 class Compiled(NamedTuple):
@@ -381,13 +410,15 @@ class Compiled(NamedTuple):
     state: Callable  # the kind's arrays -> the structref the steps read
     steps: Callable
     refresh: Callable
+    restart: Callable
 
 
 def compile_kind(pieces: Pieces, make_state: Callable) -> Compiled:
     """The steps of a kind with ``pieces`` compiled by Numba and cached (``native.jit``)."""
     numba = native.numba_module()
-    steps, refresh = steps_with(numba.njit, pieces)
-    return Compiled(make_state, native.jit(steps.py_func), native.jit(refresh.py_func))
+    steps, refresh, restart = steps_with(numba.njit, pieces)
+    return Compiled(make_state, native.jit(steps.py_func), native.jit(refresh.py_func),
+                    native.jit(restart.py_func))
 
 
 class GameKernel:
@@ -451,6 +482,12 @@ class GameKernel:
         """``Game._refresh``: the shuttle in each face's frame and the bases' x-distances."""
         self.prepare(game)
         self.functions().refresh(self.state(game), self._record)
+
+    def restart(self, game: Any, envs: np.ndarray, receiver: np.ndarray, pos: np.ndarray,
+                vel: np.ndarray) -> None:
+        """Serves in ``envs`` of ``game`` toward ``receiver`` from ``pos`` at ``vel``."""
+        self.prepare(game)
+        self.functions().restart(self.state(game), self._record, envs, receiver, pos, vel)
 
     def run(self, game: Any, steps: int) -> None:
         """``steps`` physics steps of ``game``."""

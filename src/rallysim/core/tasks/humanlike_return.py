@@ -11,7 +11,6 @@ import numpy as np
 from rallysim.core.game import Game
 from rallysim.core.humanlike import N_ACTIONS, HumanLikeBodies
 from rallysim.core.humanlike_obs import PLAYER_OBS_SIZE, player_observations
-from rallysim.core.lanes import column
 from rallysim.core.rules import SERVE_DRAWS
 from rallysim.core.serve import HumanLikeServe
 from rallysim.core.validation import positive_int, read_options
@@ -71,7 +70,10 @@ class HumanLikeReturnTask:
                                  f"{given['target_velocity'][slow][0].tolist()}")
         return given
 
-    def observe(self) -> np.ndarray:
+    def observe(self, rows: np.ndarray | None = None, out: np.ndarray | None = None
+                ) -> np.ndarray:
+        """(N, 85) float32 observations, all made anew (``rows`` and ``out``, which the SIMPLE
+        task uses to observe only some games again, are not needed here)."""
         obs = np.empty((self.n, OBS_SIZE))
         obs[:, :PLAYER_OBS_SIZE] = player_observations(self.game)[:, 0]
         obs[:, PLAYER_OBS_SIZE:] = self.goal / TARGET_SCALE
@@ -80,36 +82,33 @@ class HumanLikeReturnTask:
     def step(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
         """Advance all N games by one decision with validated, clipped ``actions`` (N, 15):
         rewards, terminated, truncated and info, as (N,) (or (N, 3)) arrays."""
-        reward, terminated, truncated, values = self.outcome(actions)
-        info = {key: column(value, self.n) for key, value in values.items()}
+        reward, terminated, truncated, info = self.outcome(actions)
         # Gymnasium's vector convention: "_key" marks the environments where "key" applies.
         for key in HIT_KEYS:
             info["_" + key] = info["hit"].copy()
         info["_landing_point"] = info["landed"].copy()
-        return (column(reward, self.n), column(terminated, self.n), column(truncated, self.n),
-                info)
+        return reward, terminated.copy(), truncated, info
 
-    def outcome(self, actions: np.ndarray) -> tuple[Any, Any, Any, dict[str, Any]]:
-        """``step``'s values as lanes of ``game.ops`` (rallysim.core.lanes: Python values for
-        one environment where they are numbers), not yet copied into arrays."""
-        game, ops = self.game, self.game.ops
-        read = ops.read
-        ev = game.step(actions[:, None, :])
-        elapsed = ops.tick(self.elapsed)
-        hit, landed = read(ev.hit[:, 0]), read(ev.landed)
-        if ops.any(hit):
-            reward, values = self._hit_values(ev.hit[:, 0], ev.hit_velocity[:, 0])
+    def outcome(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
+        """``step``'s values before the vector's info keys, each a new array."""
+        ev = self.game.step(actions[:, None, :])
+        self.elapsed += 1
+        hit, landed = ev.hit[:, 0].copy(), ev.landed.copy()
+        if np.count_nonzero(hit):
+            reward, values = self._hit_values(hit, ev.hit_velocity[:, 0])
         else:  # rewards and hit values only come with a hit
-            reward = 0.0
-            values = {"racket_velocity": np.full((self.n, 3), np.nan), "velocity_error": np.nan,
-                      "angle_error": np.nan, "speed_error": np.nan, "reward_hit": 0.0,
-                      "reward_velocity": 0.0}
-        landing = (np.where(ev.landed[:, None], ev.land_point, np.nan) if ops.any(landed)
-                   else np.full((self.n, 3), np.nan))
-        truncated = ops.logical_not(landed) & (elapsed >= self.max_decisions)
+            n = self.n
+            reward = np.zeros(n)
+            values = {"racket_velocity": np.full((n, 3), np.nan),
+                      "velocity_error": np.full(n, np.nan), "angle_error": np.full(n, np.nan),
+                      "speed_error": np.full(n, np.nan), "reward_hit": np.zeros(n),
+                      "reward_velocity": np.zeros(n)}
+        landing = (np.where(ev.landed[:, None], ev.land_point, np.nan)
+                   if np.count_nonzero(landed) else np.full((self.n, 3), np.nan))
+        truncated = ~landed & (self.elapsed >= self.max_decisions)
         return reward, landed, truncated, {
-            "hit": hit, **values, "net_touch": read(ev.net_touch), "landed": landed,
-            "landing_point": landing, "target_velocity": self.goal}
+            "hit": hit, **values, "net_touch": ev.net_touch.copy(), "landed": landed,
+            "landing_point": landing, "target_velocity": self.goal.copy()}
 
     def _hit_values(self, hit: np.ndarray, velocity: np.ndarray
                     ) -> tuple[np.ndarray, dict[str, np.ndarray]]:

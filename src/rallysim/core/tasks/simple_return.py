@@ -4,12 +4,13 @@ ends, observations. Its Gymnasium views, and the task's full description, are in
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
 
-from rallysim.core.game import Game, GameTrace
-from rallysim.core.lanes import column
+from rallysim.core import native
+from rallysim.core.game import Game
 from rallysim.core.reach import ShotPlanner
 from rallysim.core.serve import FedShots, MachineServe, Serve
 from rallysim.core.simple_obs import (
@@ -134,79 +135,60 @@ class ReturnTask:
                                       "base_x": ((k,), b.base_range),
                                       "arm_angle": ((k,), (-b.limit, b.limit))})
 
-    def observe(self) -> np.ndarray:
+    def observe(self, rows: np.ndarray | None = None, out: np.ndarray | None = None
+                ) -> np.ndarray:
+        """(N, 17) float32 observations; with ``rows`` and ``out`` (an earlier (N, 17)
+        observation), only those games' rows, written into ``out``."""
         extra = self.goal.reshape(self.n, 1, 1)
-        return observations(self.game, extra, OBS_CENTRE, OBS_SCALE)[:, 0]
+        full = None if out is None else out[:, None]
+        return observations(self.game, extra, OBS_CENTRE, OBS_SCALE, rows, full)[:, 0]
 
     def step(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
         """Advance all N games by one decision with validated, clipped ``actions`` (N, 3):
         rewards, terminated, truncated and info, as (N,) arrays."""
-        reward, terminated, truncated, values = self.outcome(actions)
-        info = {key: column(value, self.n) for key, value in values.items()}
+        reward, terminated, truncated, info = self.outcome(actions)
         # Gymnasium's vector convention: "_key" marks the environments where "key" applies.
         info["_racket_speed"] = info["hit"].copy()
         for key in LANDING_KEYS:
             info["_" + key] = info["landed"].copy()
-        return (column(reward, self.n), column(terminated, self.n), column(truncated, self.n),
-                info)
+        return reward, terminated.copy(), truncated, info
 
-    def outcome(self, actions: np.ndarray) -> tuple[Any, Any, Any, dict[str, Any]]:
-        """``step``'s values as lanes of ``game.ops`` (rallysim.core.lanes: Python values for
-        one environment), not yet copied into arrays."""
-        game, ops = self.game, self.game.ops
-        read, read0 = ops.read, ops.read0
+    def outcome(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
+        """``step``'s values before the vector's info keys: reward, terminated, truncated and
+        the info values, as arrays that nothing writes again (the decision's ``Events`` are
+        new, and never written again)."""
+        game = self.game
         ev = game.step(actions[:, None, :])
-        elapsed = ops.tick(self.elapsed)
-        hit, landed, goal = read0(ev.hit), read(ev.landed), read(self.goal)
-        good, bad = approach_counts(game.trace, ops.scalar)
-        shaping = SHAPING_GOOD * good + SHAPING_BAD * bad
-        reward = shaping + R_HIT * hit
-        depth = error = np.nan
-        landed_in, landing = False, 0.0
-        if ops.any(landed):
-            land_x = read(ev.land_point[:, 0])  # player 0's own frame is the world frame
-            depth = ops.where(landed, land_x, np.nan)
-            error = ops.where(landed, abs(land_x - goal), np.nan)
-            landed_in = landed & (read(ev.land_side) == 1) & read(ev.land_in)
-            scored = landed_in & read0(game.has_hit) & ops.logical_not(read(game.net_touched))
-            closeness = ops.exp(-R_DIST_RATE * ops.where(landed, error, 0.0))
-            landing = ops.where(scored, closeness, 0.0)
-            reward = reward + landing
-        returnable = ready = None
-        if self.returnable > 0.0:
-            returnable = self._returnable_reward(hit)
-            reward = reward + returnable
-        if self.ready > 0.0:
-            # after its hit, where the player stands at the end of the decision in which the
-            # shot lands: the middle of the base's range reaches either end soonest
-            off = abs(read0(game.bodies.base_x) - 0.5 * sum(game.bodies.base_range))
-            ready = ops.where(landed & read0(game.has_hit),
-                              self.ready * ops.exp(-R_DIST_RATE * off), 0.0)
-            reward = reward + ready
-        # (without a landing there is nothing to score: adding 0.0 would not change the
-        # reward, which never is -0.0)
-        truncated = ops.logical_not(landed) & (elapsed >= self.max_decisions)
-        info = {"hit": hit, "racket_speed": read0(ev.hit_speed), "net_touch": read(ev.net_touch),
-                "landed": landed, "landing_point": ev.land_point, "landing_depth": depth,
-                "landing_error": error, "landed_in": landed_in, "target_depth": goal,
+        hit = ev.hit[:, 0]
+        returnable = self._returnable_reward(hit) if self.returnable > 0.0 else _NONE
+        b, trace = game.bodies, game.trace
+        values = np.empty((7, self.n))
+        flags = np.empty((2, self.n), bool)
+        _OUTCOME.get()(ev.hit, ev.landed, ev.land_point, ev.land_side, ev.land_in,
+                       game.has_hit, game.net_touched, b.base_x, trace.gap, trace.moved,
+                       trace.live, trace.has_hit, self.goal, self.elapsed, self.max_decisions,
+                       returnable, self.ready, 0.5 * sum(b.base_range), values, flags)
+        reward, shaping, hit_reward, landing, depth, error, ready = values
+        truncated, landed_in = flags
+        info = {"hit": hit, "racket_speed": ev.hit_speed[:, 0], "net_touch": ev.net_touch,
+                "landed": ev.landed, "landing_point": ev.land_point, "landing_depth": depth,
+                "landing_error": error, "landed_in": landed_in, "target_depth": self.goal.copy(),
                 # the reward's terms, which sum to it (Gymnasium's MuJoCo v5 habit)
-                "reward_shaping": shaping, "reward_hit": R_HIT * hit, "reward_landing": landing}
-        if returnable is not None:
+                "reward_shaping": shaping, "reward_hit": hit_reward, "reward_landing": landing}
+        if self.returnable > 0.0:
             info["reward_returnable"] = returnable
-        if ready is not None:
+        if self.ready > 0.0:
             info["reward_ready"] = ready
-        return reward, landed, truncated, info
+        return reward, ev.landed, truncated, info
 
-    def _returnable_reward(self, hit: Any) -> Any:
+    def _returnable_reward(self, hit: np.ndarray) -> np.ndarray:
         """``returnable`` for each game whose player has just hit a shot the opponent can meet
-        (``ShotPlanner.returnable``), else 0; a lane of ``game.ops`` like ``hit``."""
-        hits = np.atleast_1d(np.asarray(hit, bool))
-        ok = np.zeros(hits.shape, bool)
-        if hits.any():
-            idx = np.flatnonzero(hits)
+        (``ShotPlanner.returnable``), else 0."""
+        ok = np.zeros(hit.shape, bool)
+        if hit.any():
+            idx = np.flatnonzero(hit)
             ok[idx] = self._planner.returnable(self.observe()[idx, :PLAYER_OBS_SIZE])
-        extra = self.returnable * ok
-        return float(extra[0]) if np.ndim(hit) == 0 else extra
+        return self.returnable * ok
 
 
 def _weight(value: Any, name: str) -> float:
@@ -216,28 +198,63 @@ def _weight(value: Any, name: str) -> float:
     return float(value)
 
 
-def approach_counts(trace: GameTrace, scalar: bool) -> tuple[Any, Any]:
-    """The approach shaping's counts of the last decision (``Game.trace``): the physics steps
-    in which player 0's base closed in on the shuttle (it moved, and its x-distance to the
-    shuttle shrank) while the rally was live and before the player's first hit, and the live
-    steps before that hit in which it did not. One game (``scalar``): Python ints; else (N,)
-    arrays."""
-    if scalar:
-        gap = trace.gap[:, 0, 0].tolist()
-        moved, live = trace.moved[:, 0, 0].tolist(), trace.live[:, 0].tolist()
-        hit = trace.has_hit[:, 0, 0].tolist()
+_NONE = np.zeros(0)  # no returnable term
+
+
+def _outcome(hit, landed, land_point, land_side, land_in, has_hit, net_touched, base_x, gap,
+             moved, live, trace_hit, goal, elapsed, max_decisions, returnable, ready,
+             ready_centre, values, flags):
+    """One decision's outcome in each of N games, after its physics steps (compiled:
+    ``_OUTCOME``), into ``values`` (7 x N: reward, its terms shaping, hit and landing, the
+    landing's depth and its error, the ready term) and ``flags`` (truncated, landed in);
+    counts the decision in ``elapsed``.
+
+    The approach shaping counts, from the game's trace, the physics steps in which player 0's
+    base closed in on the shuttle (it moved, and its x-distance to the shuttle shrank) while
+    the rally was live and before the player's first hit (``SHAPING_GOOD`` each), and the live
+    steps before that hit in which it did not (``SHAPING_BAD`` each). A landing scores
+    exp(-``R_DIST_RATE`` x its distance to the goal depth) when it is in the opponent's half,
+    after the player's hit, with no net touch since. The terms are added in the order the
+    reward lists them; ``returnable`` (empty: no such term) and ``ready`` (0: none) are the
+    optional ones."""
+    for e in range(goal.shape[0]):
         good = bad = 0
-        for s in range(len(live)):
-            if live[s] and not hit[s]:
-                if moved[s] and gap[s + 1] < gap[s]:
+        for s in range(live.shape[0]):
+            if live[s, e] and not trace_hit[s, e, 0]:
+                if moved[s, e, 0] and gap[s + 1, e, 0] < gap[s, e, 0]:
                     good += 1
                 else:
                     bad += 1
-        return good, bad
-    todo = trace.live & ~trace.has_hit[..., 0]
-    closer = todo & trace.moved[..., 0] & (trace.gap[1:, :, 0] < trace.gap[:-1, :, 0])
-    good = np.count_nonzero(closer, axis=0)
-    return good, np.count_nonzero(todo, axis=0) - good
+        shaping = SHAPING_GOOD * good + SHAPING_BAD * bad
+        hit_reward = R_HIT if hit[e, 0] else 0.0
+        reward = shaping + hit_reward
+        depth = error = np.nan
+        landing = 0.0
+        landed_in = False
+        if landed[e]:
+            depth = land_point[e, 0]  # player 0's own frame is the world frame
+            error = abs(depth - goal[e])
+            landed_in = land_side[e] == 1 and land_in[e]
+            if landed_in and has_hit[e, 0] and not net_touched[e]:
+                landing = math.exp(-R_DIST_RATE * error)
+            reward = reward + landing
+        if returnable.size:
+            reward = reward + returnable[e]
+        near = 0.0
+        if ready > 0.0:
+            # after its hit, where the player stands at the end of the decision in which the
+            # shot lands: the middle of the base's range reaches either end soonest
+            if landed[e] and has_hit[e, 0]:
+                near = ready * math.exp(-R_DIST_RATE * abs(base_x[e, 0] - ready_centre))
+            reward = reward + near
+        elapsed[e] += 1
+        flags[0, e] = not landed[e] and elapsed[e] >= max_decisions
+        flags[1, e] = landed_in
+        values[0, e], values[1, e], values[2, e] = reward, shaping, hit_reward
+        values[3, e], values[4, e], values[5, e], values[6, e] = landing, depth, error, near
+
+
+_OUTCOME = native.Kernel(lambda: native.jit(_outcome))
 
 
 def incoming_serve(incoming: str) -> Serve:
