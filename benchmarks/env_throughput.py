@@ -27,7 +27,9 @@ ours, single env
     else (rules, shuttle flight, observations, rewards, the Gymnasium API) is done.
 (a2) batched raw model
     ``mj_step`` on ``build_simple_world(N, 1)``, the very model the env steps at that N (one
-    ``mj_step`` = N env-physics-steps), Python loop and rollout. ours / (a2) is the share of the
+    ``mj_step`` = N env-physics-steps), Python loop and rollout. The loop is timed in turn
+    with "ours" at the same N (one repeat of each per round), so that their ratio compares
+    the same minutes of a shared machine. ours / (a2) is the share of the
     time that MuJoCo itself takes; the rest is the rules and the API around it.
 (b) a standard Gymnasium MuJoCo env
     ``InvertedPendulum-v5`` in ``gymnasium.vector.SyncVectorEnv`` (same-step autoreset, random
@@ -299,9 +301,12 @@ def raw_rollout_stepper(model: mujoco.MjModel, nstep: int) -> Stepper:
     return step
 
 
-def bench_raw(key: str, label: str, model: mujoco.MjModel, n: int, budget: Budget) -> list[Row]:
-    """(a) rows for ``model`` (``n`` worlds per mj_step): Python loop, then rollout."""
-    loop = calls_per_second(raw_loop_stepper(model), budget)
+def bench_raw(key: str, label: str, model: mujoco.MjModel, n: int, budget: Budget,
+              loop: float | None = None) -> list[Row]:
+    """(a) rows for ``model`` (``n`` worlds per mj_step): Python loop (``loop`` calls/s where
+    it was timed already), then rollout."""
+    if loop is None:
+        loop = calls_per_second(raw_loop_stepper(model), budget)
     rows = [Row(f"{key}_loop", f"{label}, Python loop", n, loop, None, loop * n)]
     if mj_rollout is None:
         rows.append(Row(f"{key}_rollout", f"{label}, rollout", n, None, None, None,
@@ -579,9 +584,11 @@ def memory_table(memory: dict[str, Any]) -> str:
 
 # -- main --------------------------------------------------------------------------------------
 def throughput_rows(budget: Budget) -> list[Row]:
-    rows = []
+    rows, raw_loops = [], {}
     for n in NS:
-        calls = calls_per_second(ours_random_stepper(n), budget)
+        # ours and (a2)'s loop on the same model timed in turn: their ratio is the target's
+        calls, raw_loops[n] = interleaved_calls_per_second(
+            [ours_random_stepper(n), raw_loop_stepper(build_simple_world(n, 1))], budget)
         rows.append(Row(f"ours_{n}", "rallysim SimpleReturnVectorEnv, random actions", n, calls,
                         calls * n, calls * n * PHYSICS_STEPS_PER_DECISION))
     for n in NS:
@@ -591,7 +598,7 @@ def throughput_rows(budget: Budget) -> list[Row]:
     rows += bench_raw("a1", "(a1) raw mj_step, 1 world", build_simple_world(1, 1), 1, budget)
     for n in NS:
         rows += bench_raw(f"a2_{n}", "(a2) raw mj_step, N worlds", build_simple_world(n, 1), n,
-                          budget)
+                          budget, raw_loops[n])
     rows += [bench_pendulum(n, budget) for n in NS]
     rows += bench_singles([
         Single("single_simple", f"rallysim gym.make({SIMPLE_ID!r}), random actions",

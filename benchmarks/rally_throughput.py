@@ -8,7 +8,9 @@ Rows, each the best of 3 timed repeats after a warm-up (the machine is shared an
   counting one decision per rally (both players act in it) and per player slot;
 - ``RallyTask`` driven by the scripted controllers (policy cost included);
 - ``SimpleRallyTurnVectorEnv`` with 256 rallies and the scripted low level: turn-based steps/s
-  (one step = one turn, spanning many decisions) and the decisions/s inside them.
+  (one step = one turn, spanning many decisions) and the decisions/s inside them;
+- the rally's ceiling: raw ``mujoco.mj_step`` of the very model the rally steps (256 rallies x
+  2 players in one model), in a Python loop, five steps per decision: what MuJoCo alone costs.
 Targets (issue 3): none fixed; the ratio to the low-level env is printed.
 """
 
@@ -83,6 +85,24 @@ def rally_scripted(seconds: float) -> float:
     return best_rate(lambda: timed(step, seconds))
 
 
+def rally_raw(seconds: float) -> float:
+    """Rally decisions/s that MuJoCo's own step of the rally's model allows (5 per decision)."""
+    import mujoco
+
+    from rallysim.core.bodies import build_simple_world
+
+    model = build_simple_world(N, 2)
+    data = mujoco.MjData(model)
+
+    def step() -> int:
+        for _ in range(5):
+            mujoco.mj_step(model, data)
+        return N
+
+    step()
+    return best_rate(lambda: timed(step, seconds))
+
+
 def turns_scripted(seconds: float) -> tuple[float, float]:
     env = SimpleRallyTurnVectorEnv(N, low_level="scripted", seed=0, autoreset_mode="same_step")
     env.reset(seed=0)
@@ -120,6 +140,7 @@ def main() -> None:
         "low-level SimpleReturnVectorEnv, random (reference)": (ref, ref),
         "rally SimpleRallyVectorEnv, random": (rally_random(seconds), None),
         "rally RallyTask + scripted controllers": (rally_scripted(seconds), None),
+        "rally ceiling: raw mj_step of its model": (rally_raw(seconds), None),
     }
     turn_rate, turn_decisions = turns_scripted(seconds)
     print(f"N = {N} environments (rallies); decisions/s count one per environment per step\n")
@@ -127,7 +148,8 @@ def main() -> None:
     print("|---|---:|---:|---|")
     results = {}
     for name, (rate, _) in rows.items():
-        note = "both players act in each rally decision" if "rally" in name else ""
+        note = ("5 mj_step calls per decision, nothing else" if "ceiling" in name
+                else "both players act in each rally decision" if "rally" in name else "")
         print(f"| {name} | {rate:,.0f} | {rate / ref:.2f} | {note} |")
         results[name] = rate
     print(f"| turn-based SimpleRallyTurnVectorEnv, scripted low level | {turn_decisions:,.0f} | "

@@ -155,11 +155,12 @@ class NativeVectorEnv(VectorEnv):
         k = self.slots_per_unit
         if self._same_step and done.any():
             slot_done = np.repeat(done, k)
-            info["final_obs"] = np.where(slot_done[:, None], obs, np.nan).astype(np.float32)
+            final_info = {key: v.copy() if isinstance(v, np.ndarray) else v
+                          for key, v in info.items()}
+            final = np.where(slot_done[:, None], obs, np.nan)
+            info["final_obs"] = final.astype(np.float32, copy=False)
             info["_final_obs"] = slot_done
-            info["final_info"] = {key: v.copy() if isinstance(v, np.ndarray) else v
-                                  for key, v in info.items() if not key.startswith(
-                                      ("final", "_final"))}
+            info["final_info"] = final_info
             info["_final_info"] = slot_done.copy()
             units = np.flatnonzero(done)
             self._restart(units, None)

@@ -338,10 +338,11 @@ def steps_with(njit: Callable, pieces: Pieces) -> tuple[Callable, Callable, Call
             # the swept test: the first armed player met hits; the net; the floor
             hitter, t_hit = -1, 0.0
             for j in range(p):
-                met, t = entry(q0, q, lo, hi, e, j)
-                if met and armed[e, j]:
-                    hitter, t_hit = j, t
-                    break
+                if armed[e, j]:  # (only an armed player's face is tested)
+                    met, t = entry(q0, q, lo, hi, e, j)
+                    if met:
+                        hitter, t_hit = j, t
+                        break
             if hitter >= 0:
                 judge_contacts(a, ev, k, e, p, hitter, t_hit)
                 continue
