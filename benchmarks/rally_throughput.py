@@ -9,8 +9,11 @@ Rows, each the best of 3 timed repeats after a warm-up (the machine is shared an
 - ``RallyTask`` driven by the scripted controllers (policy cost included);
 - ``SimpleRallyTurnVectorEnv`` with 256 rallies and the scripted low level: turn-based steps/s
   (one step = one turn, spanning many decisions) and the decisions/s inside them;
-- the rally's ceiling: raw ``mujoco.mj_step`` of the very model the rally steps (256 rallies x
-  2 players in one model), in a Python loop, five steps per decision: what MuJoCo alone costs.
+- the rally's ceilings: raw ``mujoco.mj_step`` of the very model the rally steps (256 rallies x
+  2 players in one model), in a Python loop, five steps per decision: what MuJoCo alone costs;
+  and the rally's ``Game.step`` alone (the compiled physics steps and judging, random actions,
+  a game served again when its rally ends): what the game costs without the task's
+  observations and rewards or the Gymnasium API.
 Targets (issue 3): none fixed; the ratio to the low-level env is printed.
 """
 
@@ -103,6 +106,24 @@ def rally_raw(seconds: float) -> float:
     return best_rate(lambda: timed(step, seconds))
 
 
+def rally_game(seconds: float) -> float:
+    """Rally decisions/s of the rally's ``Game.step`` alone."""
+    game = RallyTask(N, seed=0).game
+    game.reset(np.arange(N), receiver=0)
+    actions = np.random.default_rng(0).uniform(-1, 1, (64, N, 2, 3))
+    it = iter(range(10**12))
+
+    def step() -> int:
+        game.step(actions[next(it) % 64])
+        over = np.flatnonzero(~game.in_play | (game.hits >= game.max_hits))
+        if len(over):
+            game.reset(over, receiver=0)
+        return N
+
+    step()
+    return best_rate(lambda: timed(step, seconds))
+
+
 def turns_scripted(seconds: float) -> tuple[float, float]:
     env = SimpleRallyTurnVectorEnv(N, low_level="scripted", seed=0, autoreset_mode="same_step")
     env.reset(seed=0)
@@ -141,6 +162,7 @@ def main() -> None:
         "rally SimpleRallyVectorEnv, random": (rally_random(seconds), None),
         "rally RallyTask + scripted controllers": (rally_scripted(seconds), None),
         "rally ceiling: raw mj_step of its model": (rally_raw(seconds), None),
+        "rally ceiling: its Game.step alone": (rally_game(seconds), None),
     }
     turn_rate, turn_decisions = turns_scripted(seconds)
     print(f"N = {N} environments (rallies); decisions/s count one per environment per step\n")
@@ -148,7 +170,8 @@ def main() -> None:
     print("|---|---:|---:|---|")
     results = {}
     for name, (rate, _) in rows.items():
-        note = ("5 mj_step calls per decision, nothing else" if "ceiling" in name
+        note = ("5 mj_step calls per decision, nothing else" if "mj_step" in name
+                else "compiled steps and judging, no task or API" if "Game.step" in name
                 else "both players act in each rally decision" if "rally" in name else "")
         print(f"| {name} | {rate:,.0f} | {rate / ref:.2f} | {note} |")
         results[name] = rate

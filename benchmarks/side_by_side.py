@@ -33,6 +33,8 @@ ROWS = (
      "SimpleRallyVectorEnv, 256 rallies, random"),
     ("rally_throughput.py", "rally ceiling: raw mj_step of its model",
      "(ceiling) raw mj_step of the rally's model, 5 per decision"),
+    ("rally_throughput.py", "rally ceiling: its Game.step alone",
+     "(ceiling) the rally's Game.step alone, 256 rallies"),
     ("rally_throughput.py", "rally RallyTask + scripted controllers",
      "RallyTask + scripted controllers, 256 rallies"),
     ("rally_throughput.py", "turn decisions/s",
