@@ -108,14 +108,15 @@ def rally_raw(seconds: float) -> float:
 
 def rally_game(seconds: float) -> float:
     """Rally decisions/s of the rally's ``Game.step`` alone."""
-    game = RallyTask(N, seed=0).game
+    task = RallyTask(N, seed=0)
+    game, cap = task.game, task.config.max_hits
     game.reset(np.arange(N), receiver=0)
     actions = np.random.default_rng(0).uniform(-1, 1, (64, N, 2, 3))
     it = iter(range(10**12))
 
     def step() -> int:
         game.step(actions[next(it) % 64])
-        over = np.flatnonzero(~game.in_play | (game.hits >= game.max_hits))
+        over = np.flatnonzero(~game.in_play | (game.hits >= cap))
         if len(over):
             game.reset(over, receiver=0)
         return N

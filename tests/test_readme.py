@@ -105,6 +105,20 @@ def test_the_performance_table_is_the_committed_json():
         assert f"| {rows[key]['decisions_per_s']:,.0f} |" in text, key
 
 
+def test_the_benchmarks_low_level_table_is_the_committed_json():
+    rows = {r["key"]: r for r in json.loads((DATA / "env_throughput.json").read_text())["rows"]}
+    runs = json.loads((DATA / "issue37_a2_ratio_runs.json").read_text())["runs"]
+    text = (ROOT / "docs" / "benchmarks.md").read_text()
+    for key in ("ours_1", "ours_64", "ours_256", "scripted_256", "single_simple",
+                "single_humanlike", "pendulum_256", "single_pendulum"):
+        r = rows[key]
+        assert f"| {r['decisions_per_s']:,.0f} | {r['physics_per_s']:,.0f} |" in text, key
+    # the last of the four runs is the committed table's
+    assert runs[-1]["ours_256_decisions_per_s"] == rows["ours_256"]["decisions_per_s"]
+    ratios = ", ".join(f"{r['ratio'] * 100:.0f} %" for r in runs)
+    assert f"({ratios} in four runs)" in text
+
+
 def test_the_first_step_figures_are_the_committed_json():
     results = json.loads((DATA / "first_step.json").read_text())["results"]
     text = (ROOT / "docs" / "performance.md").read_text()

@@ -125,6 +125,20 @@ def test_the_train_speed_before_and_after_matches_its_json():
         assert f"| {after / before:.2f}x |" in text, key
 
 
+def test_the_side_by_side_table_matches_its_json():
+    """docs/benchmarks.md's issue 37 before/after: every row of the side-by-side run on disk,
+    each run's number and the ratio of the best."""
+    data = json.loads((ROOT / "docs" / "data" / "issue37_side_by_side.json").read_text())
+    text = (ROOT / "docs" / "benchmarks.md").read_text()
+    assert data["before"] == "ff11adb" and data["rounds"] == 2 and not data["quick"]
+    for row in data["rows"].values():
+        before, after = row["before"], row["after"]
+        assert len(before) == len(after) == 2
+        cells = (f"| {row['label']} | {' / '.join(f'{v:,.0f}' for v in before)} | "
+                 f"{' / '.join(f'{v:,.0f}' for v in after)} | {max(after) / max(before):.2f}x |")
+        assert cells in text, row["label"]
+
+
 def _seed_row(label: str, per_seed: dict[str, float]) -> str:
     cells = [f"{per_seed[str(s)]:.2f}" if str(s) in per_seed else "" for s in range(10)]
     return f"| {label} | " + " | ".join(cells) + " |"

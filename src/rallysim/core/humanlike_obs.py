@@ -70,6 +70,16 @@ if (N_BODIES * BODY_OBS_SIZE, *(PLAYER_OBS[k].start for k in (
     raise RuntimeError("humanlike_step.observations writes another layout")
 
 
+def observations_with(game: Game, extra: np.ndarray, centre: np.ndarray, scale: np.ndarray
+                      ) -> np.ndarray:
+    """(N, P, 82 + X) float32: every player's observation, then ``extra`` (N, P, X) mapped by
+    (x - ``centre``) / ``scale``, all clipped into [-1, 1] (``PlayerSpec.observe_with``)."""
+    out = np.empty((game.n_envs, game.n_players, PLAYER_OBS_SIZE + extra.shape[2]))
+    out[..., :PLAYER_OBS_SIZE] = player_observations(game)
+    out[..., PLAYER_OBS_SIZE:] = (extra - centre) / scale
+    return np.clip(out, -1.0, 1.0).astype(np.float32)
+
+
 def opponent_positions(game: Game) -> np.ndarray:
     """(N, 2, 3) each player's opponent's hips position in the player's own frame."""
     hips = game.bodies.hips_position()  # (N, 2, 3), each in its own frame

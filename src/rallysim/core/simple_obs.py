@@ -72,6 +72,14 @@ def observations(game: Game, extra: np.ndarray, centre: np.ndarray, scale: np.nd
     return kernels.observations(game, extra, centre, scale, rows, out)
 
 
+def observations_with(game: Game, extra: np.ndarray, centre: np.ndarray, scale: np.ndarray
+                      ) -> np.ndarray:
+    """(N, P, 16 + X) float32: every player's observation, then ``extra`` (N, P, X) mapped by
+    (x - ``centre``) / ``scale``, all clipped into [-1, 1] (``PlayerSpec.observe_with``)."""
+    return observations(game, extra, np.concatenate((PLAYER_OBS_CENTRE, centre)),
+                        np.concatenate((PLAYER_OBS_SCALE, scale)))
+
+
 def opponent_positions(game: Game) -> np.ndarray:
     """(N, 2, 3) each player's opponent's base position in the player's own frame: x and z of
     the opponent's base (its own-frame x turned 180 degrees about z), y 0."""

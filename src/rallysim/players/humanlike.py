@@ -12,6 +12,7 @@ import numpy as np
 
 from rallysim.core.humanlike import HumanLikeBodies
 from rallysim.core.humanlike_obs import PLAYER_OBS as OBS
+from rallysim.core.humanlike_obs import observations_with as observe_with
 from rallysim.core.humanlike_obs import opponent_positions
 from rallysim.core.humanlike_obs import player_observations as observe
 from rallysim.core.rules import SERVE_DRAWS
@@ -68,7 +69,8 @@ PLAYER = HUMANLIKE = PlayerSpec(
     action=ACTION, goal=GOAL, start=StartPose(base_x=(-2.7, -2.7), base_y=(0.0, 0.0)),
     # v0's rally drew the machine serve's uniforms, then the HUMAN-LIKE serve's in its place
     serve=HumanLikeServe(unused_before=SERVE_DRAWS),
-    observe=observe, opponent=opponent_positions, low_observations=low_observations,
+    observe=observe, observe_with=observe_with, opponent=opponent_positions,
+    low_observations=low_observations,
     scripted_low=scripted_low,
     scripted_task_low=AimedSwing, camera="three_quarter_close",
     low_env_id="RallySim/HumanLikeReturn-v0", rig="rallysim.render.players:HumanLikeRig")

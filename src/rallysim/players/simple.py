@@ -14,6 +14,7 @@ from rallysim.core.game import PHYSICS_DT
 from rallysim.core.serve import MachineServe
 from rallysim.core.simple_obs import PLAYER_OBS as OBS
 from rallysim.core.simple_obs import TARGET_DEPTH_RANGE, normalise_depth, opponent_positions
+from rallysim.core.simple_obs import observations_with as observe_with
 from rallysim.core.simple_obs import player_observations as observe
 from rallysim.players.spec import GoalSpec, Layout, PlayerSpec, StartPose
 from rallysim.policies.scripted import ScriptedController
@@ -45,7 +46,7 @@ PLAYER = SIMPLE = PlayerSpec(
     obs=OBS, low_obs=OBS.extended(("goal_depth", 1)),
     rally_obs=OBS.extended(("opponent_position", 3), ("my_turn", 1)),
     action=ACTION, goal=GOAL, start=StartPose(base_x=(-2.7, -2.44)), serve=MachineServe(),
-    observe=observe, opponent=opponent_positions,
+    observe=observe, observe_with=observe_with, opponent=opponent_positions,
     low_observations=low_observations, scripted_low=ScriptedController,
     scripted_task_low=scripted_task_low, camera="side",
     low_env_id="RallySim/SimpleReturn-v0", rig="rallysim.render.players:SimpleRig")

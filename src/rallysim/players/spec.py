@@ -105,6 +105,9 @@ class PlayerSpec:
     start: StartPose
     serve: Any  # the serve that starts each rally (a rallysim.core.serve strategy)
     observe: Callable[[Any], np.ndarray]  # Game -> (N, P, obs.size), scaled, not yet clipped
+    # Game, extra (N, P, X), centre (X,), scale (X,) -> (N, P, obs.size + X) float32: ``obs``
+    # then (extra - centre) / scale, all clipped into [-1, 1]
+    observe_with: Callable[[Any, np.ndarray, np.ndarray, np.ndarray], np.ndarray]
     opponent: Callable[[Any], np.ndarray]  # Game -> (N, 2, 3) the opponent's position, own frame
     low_observations: Callable[[np.ndarray, np.ndarray], np.ndarray]  # rally obs, goals -> low
     scripted_low: Callable[[], Callable]  # () -> the rally's scripted low level (obs, goals)

@@ -24,10 +24,14 @@ import numpy as np
 
 from rallysim.core import rules
 from rallysim.core.game import Game
-from rallysim.core.simple_obs import normalise_position
+from rallysim.core.simple_obs import POSITION_CENTRE, POSITION_SCALE
 from rallysim.players import SIMPLE, PlayerSpec
 
 MODES = ("cooperative", "competitive")
+# the maps of what the rally adds to a player's observation: the opponent's position (as
+# every position is observed), then "my turn" (armed: 1 or 0)
+EXTRA_CENTRE = np.append(POSITION_CENTRE, 0.0)
+EXTRA_SCALE = np.append(POSITION_SCALE, 1.0)
 
 
 @dataclass(frozen=True)
@@ -146,12 +150,10 @@ class RallyTask:
         """(N, 2, obs_size) float32 observations, each in its player's own frame, in [-1, 1]:
         the player's own, the opponent's base position, and "my turn" (armed)."""
         g = self.game
-        k = self.obs_size - 4
-        obs = np.empty((self.n, 2, self.obs_size))
-        obs[..., :k] = self.spec.observe(g)
-        obs[..., k:k + 3] = normalise_position(self.spec.opponent(g))
-        obs[..., k + 3] = g.armed
-        return np.clip(obs, -1.0, 1.0).astype(np.float32)
+        extra = np.empty((self.n, 2, 4))
+        extra[..., :3] = self.spec.opponent(g)
+        extra[..., 3] = g.armed
+        return self.spec.observe_with(g, extra, EXTRA_CENTRE, EXTRA_SCALE)
 
     # -- one decision ---------------------------------------------------------------------------
     def step(self, actions: np.ndarray, active: np.ndarray | None = None):
