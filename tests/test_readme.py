@@ -119,6 +119,15 @@ def test_the_benchmarks_low_level_table_is_the_committed_json():
     assert f"({ratios} in four runs)" in text
 
 
+def test_the_benchmarks_rally_table_is_the_committed_json():
+    data = json.loads((DATA / "rally_throughput.json").read_text())
+    text = (ROOT / "docs" / "benchmarks.md").read_text()
+    ref = data["low-level SimpleReturnVectorEnv, random (reference)"]
+    for key, rate in data.items():
+        if key != "turn steps/s":
+            assert f"| {rate:,.0f} | {rate / ref:.2f}" in text, key
+
+
 def test_the_first_step_figures_are_the_committed_json():
     results = json.loads((DATA / "first_step.json").read_text())["results"]
     text = (ROOT / "docs" / "performance.md").read_text()
