@@ -249,3 +249,96 @@ def test_one_compiled_signature_serves_every_game():
     steps, observation = simple.Compiled.get()
     assert len(steps.steps.signatures) == 1
     assert len(observation.signatures) == 1
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_actions_are_held_in_their_own_arithmetic(dtype):
+    """SIMPLE players' actions become the drive's target, its torque limits and the base's
+    step as NumPy's expressions over arrays of the actions' type give them (a policy's float32
+    actions keep float32 arithmetic: the seeded rallies over MLP low levels depend on it)."""
+    g = Game(4, 2)
+    a = np.random.default_rng(3).uniform(-1, 1, (4, 2, 3)).astype(dtype)
+    b = g.bodies
+    b.set_actions(a)
+    torque = (a[..., 1] + 1.0) * (0.5 * b.max_torque)
+    assert same_bits(b.target, (a[..., 0] * b.max_target_angle).astype(np.float64))
+    assert same_bits(b.torque_limit, torque.astype(np.float64))
+    assert same_bits(b._neg_limit, (-torque).astype(np.float64))
+    assert same_bits(b._base_step, (a[..., 2] * (b.max_base_speed * b.dt)).astype(np.float64))
+    if dtype == np.float32:  # float32 and float64 arithmetic differ here, so this tells them apart
+        wide = (a[..., 1].astype(np.float64) + 1.0) * (0.5 * b.max_torque)
+        assert not same_bits(b.torque_limit, wide)
+    with pytest.raises(ValueError, match="3 actions"):
+        b.set_actions(np.zeros((4, 2, 2)))
+
+
+def test_a_games_inputs_are_checked_before_anything_changes():
+    g = Game(3, 1, seed=0)
+    g.reset(np.arange(3))
+    g.step(np.full((1, 1, 3), 0.7))  # one action for every game, as NumPy broadcasts
+    assert same_bits(g.bodies.target, np.full((3, 1), 0.7 * g.bodies.max_target_angle))
+    with pytest.raises(ValueError):
+        g.step(np.full((5, 1, 3), 0.7))
+    base_x = g.bodies.base_x.copy()
+    with pytest.raises(IndexError):
+        g.reset(np.array([1, 5]))
+    assert same_bits(g.bodies.base_x, base_x)
+    with pytest.raises(IndexError, match="receivers"):
+        g.reset(np.array([0]), receiver=1)
+    two = Game(2, 2, seed=0)
+    two.reset(np.arange(2), receiver=-1)  # an index: the last player
+    assert two.armed.tolist() == [[False, True], [False, True]]
+    with pytest.raises(ValueError, match="out"):
+        simple.observations(g, np.zeros((3, 1, 0)), OBS_CENTRE[:16], OBS_SCALE[:16],
+                            rows=np.array([0]))
+
+
+def test_the_shaping_is_counted_from_the_trace():
+    """The low-level task's approach shaping (``_outcome``): the trace's steps before the
+    player's hit in which its base closed in on the shuttle, and the other live ones."""
+    from rallysim.core.tasks.simple_return import SHAPING_BAD, SHAPING_GOOD, ReturnTask
+
+    task = ReturnTask(16, seed=2)
+    task.reset(np.arange(16))
+    rng = np.random.default_rng(2)
+    seen = set()
+    for _ in range(200):
+        _, term, trunc, info = task.step(rng.uniform(-1, 1, (16, 3)))
+        t = task.game.trace
+        todo = t.live & ~t.has_hit[..., 0]
+        good = np.count_nonzero(todo & t.moved[..., 0] & (t.gap[1:, :, 0] < t.gap[:-1, :, 0]),
+                                axis=0)
+        bad = np.count_nonzero(todo, axis=0) - good
+        assert same_bits(info["reward_shaping"], SHAPING_GOOD * good + SHAPING_BAD * bad)
+        seen.update(zip(good.tolist(), bad.tolist(), strict=True))
+        done = np.flatnonzero(term | trunc)
+        if len(done):
+            task.reset(done)
+    assert len(seen) >= 6  # mixes of closing and not closing in
+
+
+def test_a_reset_elsewhere_leaves_a_games_next_decision_alone():
+    """A reset refreshes only the games it restarts: an aero shuttle stopped by the net in a
+    decision's last physics step leaves its game's base-to-shuttle distance as the steps left
+    it, and the next decision starts from there whether or not another game of the batch was
+    reset in between (env i of a batch replays a single env)."""
+    from rallysim.core.tasks.simple_return import ReturnTask
+
+    def run(n: int) -> tuple[float, float]:
+        task = ReturnTask(n, shuttle="aero", seed=0)
+        task.reset(np.arange(n))
+        g = task.game
+        g.shuttle.pos[0], g.shuttle.vel[0] = [0.72, 0.0, 1.0], [-8.0, 0.0, 0.0]
+        g._refresh()
+        a = np.zeros((n, 3))
+        a[:, 2] = 0.5
+        _, _, _, info = task.step(a)
+        assert info["net_touch"][0]
+        # the distance the steps left: from before the net put the shuttle back
+        assert g._gap[0, 0] != abs(g.shuttle.pos[0, 0] - g.bodies.base_x[0, 0])
+        if n > 1:
+            task.reset(np.arange(1, n))
+        _, _, _, info = task.step(a)
+        return float(info["reward_shaping"][0]), float(g._gap[0, 0])
+
+    assert run(1) == run(2) == run(3)

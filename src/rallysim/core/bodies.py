@@ -132,8 +132,16 @@ class SimpleBodies(MjDataViews):
 
     def set_actions(self, actions: np.ndarray) -> None:
         """Hold ``actions`` (N, P, 3), already clipped to [-1, 1], for the next physics steps."""
+        if actions.shape[-1] != 3:
+            raise ValueError(f"SIMPLE players take 3 actions each, got {actions.shape[-1]}")
+        if actions.dtype not in (np.float32, np.float64):
+            actions = actions.astype(np.float64)
+        # NumPy's arithmetic of the actions' own type, as the arrays' expressions had it: the
+        # constants in that type (the angle stays a float64: the target is one)
+        kind = actions.dtype.type
         _ACT.get()(actions, self.target, self.torque_limit, self._neg_limit, self._base_step,
-                   self.max_target_angle, 0.5 * self.max_torque, self.max_base_speed * self.dt)
+                   self.max_target_angle, kind(1.0), kind(0.5 * self.max_torque),
+                   kind(self.max_base_speed * self.dt))
 
     def _sync_mocap(self) -> None:
         self.mocap[..., 0] = self.forward * self.base_x
@@ -172,13 +180,14 @@ class SimpleBodies(MjDataViews):
         return out
 
 
-def _act(actions, target, torque_limit, neg_limit, base_step, angle, half_torque, step):
+def _act(actions, target, torque_limit, neg_limit, base_step, angle, one, half_torque, step):
     """SIMPLE players' actions (N, P, 3) as their drive's target angle, its torque limits and
-    the base's movement per physics step (compiled: ``_ACT``)."""
+    the base's movement per physics step (compiled: ``_ACT``), computed in the actions' type
+    (``one``, ``half_torque`` and ``step`` are of it)."""
     for e in range(actions.shape[0]):
         for j in range(actions.shape[1]):
             target[e, j] = actions[e, j, 0] * angle
-            torque = (actions[e, j, 1] + 1.0) * half_torque
+            torque = (actions[e, j, 1] + one) * half_torque
             torque_limit[e, j] = torque
             neg_limit[e, j] = -torque
             base_step[e, j] = actions[e, j, 2] * step
@@ -192,6 +201,9 @@ def _place(envs, x, theta, lo, hi, base_x, q, qd, torque, target, torque_limit, 
     """SIMPLE players of games ``envs`` placed at own-frame ``x`` clipped into [lo, hi] (as
     ``np.clip`` clips), arms at rest at ``theta``, no drive, no movement (compiled:
     ``_PLACE``)."""
+    for i in range(envs.shape[0]):
+        if not 0 <= envs[i] < base_x.shape[0]:  # (before anything is written)
+            raise IndexError("a game index is out of range")
     for i in range(envs.shape[0]):
         e = envs[i]
         for j in range(base_x.shape[1]):

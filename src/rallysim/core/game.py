@@ -2,9 +2,9 @@
 
 ``Game`` owns the shuttle, the rally's state (``RallyState``) and the rule set (``Rules``); the
 bodies (``SimpleBodies`` by default) own the players and a serve strategy starts each rally.
-The rules that change the state are ``rallysim.core.rules``'s functions; ``Game`` runs the
-physics and calls them. Views (the Gymnasium and PettingZoo envs) turn ``Game`` state and
-``Events`` into observations and rewards.
+The physics steps and everything that changes the rally's state run compiled
+(``rallysim.core.kernels``): a decision's steps with their judging, and a rally's start. Tasks
+turn ``Game`` state and ``Events`` into observations, rewards and ends.
 """
 
 from __future__ import annotations
@@ -149,11 +149,15 @@ class Game:
         ``reset``), then serve toward ``receiver`` (the game's ``serve``, drawing from each
         env's stream)."""
         envs = np.asarray(envs, dtype=np.int64)
-        k = len(envs)
+        k, p = len(envs), self.n_players
         receiver = np.asarray(receiver, np.int64)
         # (one receiver for all: np.full is several times cheaper than np.broadcast_to)
         receiver = (np.full(k, receiver) if receiver.ndim == 0
                     else np.array(np.broadcast_to(receiver, (k,))))
+        if k and not (-p <= receiver.min() and receiver.max() < p):
+            raise IndexError(f"receivers must be players 0 to {p - 1}, got "
+                             f"{receiver.tolist()[:10]}")
+        receiver %= p  # (as an index: -1 is the last player)
         if base_x is None:
             base_x = np.full((k, self.n_players), -2.7)
         self.bodies.reset(envs, base_x, theta, **body)
@@ -170,7 +174,10 @@ class Game:
         their state and nothing happens to them), so a batch can wait on some of its games.
         Non-finite actions raise ``ValueError`` before anything moves: MuJoCo would reset the
         whole batch's state on them, not only the offending game's."""
-        actions = np.asarray(actions, np.float64)
+        actions = np.asarray(actions)
+        shape = (self.n_envs, self.n_players)
+        if actions.shape[:2] != shape:  # (as NumPy broadcasts an assignment, or says why not)
+            actions = np.broadcast_to(actions, (*shape, actions.shape[-1]))
         if not self._all_finite(actions):
             bad = np.flatnonzero(~np.isfinite(actions).reshape(len(actions), -1).all(axis=1))
             raise ValueError(f"actions must be finite; got NaN or inf for game(s) "

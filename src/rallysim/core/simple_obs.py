@@ -17,6 +17,8 @@ Positions share one map so that a policy can compare the base and the shuttle di
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from rallysim.core.bodies import SimpleBodies
@@ -76,8 +78,19 @@ def observations_with(game: Game, extra: np.ndarray, centre: np.ndarray, scale: 
                       ) -> np.ndarray:
     """(N, P, 16 + X) float32: every player's observation, then ``extra`` (N, P, X) mapped by
     (x - ``centre``) / ``scale``, all clipped into [-1, 1] (``PlayerSpec.observe_with``)."""
-    return observations(game, extra, np.concatenate((PLAYER_OBS_CENTRE, centre)),
-                        np.concatenate((PLAYER_OBS_SCALE, scale)))
+    return observations(game, extra, *_maps(np.asarray(centre, np.float64).tobytes(),
+                                            np.asarray(scale, np.float64).tobytes()))
+
+
+@functools.cache
+def _maps(centre: bytes, scale: bytes) -> tuple[np.ndarray, np.ndarray]:
+    """The player's maps followed by ``extra``'s (float64 bytes), made once, read-only as the
+    low-level task's are (the compiled observation then serves both with one signature)."""
+    maps = (np.concatenate((PLAYER_OBS_CENTRE, np.frombuffer(centre))),
+            np.concatenate((PLAYER_OBS_SCALE, np.frombuffer(scale))))
+    for m in maps:
+        m.flags.writeable = False
+    return maps
 
 
 def opponent_positions(game: Game) -> np.ndarray:

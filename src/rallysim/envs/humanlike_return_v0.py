@@ -128,9 +128,9 @@ def render_humanlike_return(view: EnvView, task: HumanLikeReturnTask, env: int,
 class HumanLikeReturnVectorEnv(TaskVectorEnv):
     """N environments of the HUMAN-LIKE low-level task stepped together in one call.
 
-    One MuJoCo model holds all N players and the rules run as array code. ``autoreset_mode``
-    is ``"next_step"`` (the Gymnasium default) or ``"same_step"``; see
-    ``rallysim.envs.vector_base.NativeVectorEnv``."""
+    One MuJoCo model holds all N players and the rules run as one compiled loop over the
+    games. ``autoreset_mode`` is ``"next_step"`` (the Gymnasium default) or ``"same_step"``;
+    see ``rallysim.envs.vector_base.NativeVectorEnv``."""
 
     metadata = {"render_modes": RENDER_MODES, "render_fps": 10, "autoreset_mode": NEXT_STEP}
 

@@ -130,8 +130,8 @@ def render_return(view: EnvView, task: ReturnTask, env: int) -> np.ndarray | Non
 class SimpleReturnVectorEnv(TaskVectorEnv):
     """N environments of the SIMPLE low-level task stepped together in one call.
 
-    The fast path: one MuJoCo model holds all N players and the rules run as array code, so
-    there are no per-environment Python objects. ``autoreset_mode`` is ``"next_step"`` (the
+    The fast path: one MuJoCo model holds all N players and the rules run as one compiled
+    loop over the games, so there are no per-environment Python objects. ``autoreset_mode`` is ``"next_step"`` (the
     Gymnasium default) or ``"same_step"``; see ``rallysim.envs.vector_base.NativeVectorEnv``.
     """
 

@@ -172,9 +172,10 @@ class NativeVectorEnv(VectorEnv):
 
 class TaskVectorEnv(NativeVectorEnv):
     """A native vector env over a one-player task object: ``task.game`` (seeded per env),
-    ``task.reset(units, options)``, ``task.step(actions)``, ``task.observe()`` and
-    ``task.goal``. Subclasses set ``goal_key`` and ``action_size`` and draw frames in
-    ``_frame(view, env)``."""
+    ``task.reset(units, options)``, ``task.step(actions)``, ``task.observe(rows=None,
+    out=None)`` (with ``rows`` and an earlier observation ``out``: the observation after those
+    games were reset, which may reuse ``out``) and ``task.goal``. Subclasses set ``goal_key``
+    and ``action_size`` and draw frames in ``_frame(view, env)``."""
 
     goal_key = "goal"
     action_size = 0

@@ -167,10 +167,12 @@ def observations(game: Any, extra: np.ndarray, centre: np.ndarray, scale: np.nda
     float32 (N, P, 16 + X) (``_observations_with``); with ``rows`` and ``out``, only those
     games', written into ``out``."""
     b = game.bodies
-    if out is None:
-        out = np.empty((*b.theta.shape, 16 + extra.shape[2]), np.float32)
     if rows is None:
         rows = game.every_env
+        if out is None:
+            out = np.empty((*b.theta.shape, 16 + extra.shape[2]), np.float32)
+    elif out is None:
+        raise ValueError("observing some rows needs the observation they go into (out)")
     # (only the arrays it reads: each array passed costs the call some time)
     return Compiled.get()[1](b.theta, b.omega, b.base_x, b.forward, game.shuttle.motion, extra,
                              b.base_z, b.face_offset, centre, scale, rows, out)

@@ -155,8 +155,8 @@ class ReturnTask:
 
     def outcome(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
         """``step``'s values before the vector's info keys: reward, terminated, truncated and
-        the info values, as arrays that nothing writes again (the decision's ``Events`` are
-        new, and never written again)."""
+        the info values, as arrays. The event values are the decision's ``Events``' own
+        arrays, which the game never writes again."""
         game = self.game
         ev = game.step(actions[:, None, :])
         hit = ev.hit[:, 0]
