@@ -285,6 +285,11 @@ def test_a_games_inputs_are_checked_before_anything_changes():
     assert same_bits(g.bodies.base_x, base_x)
     with pytest.raises(IndexError, match="receivers"):
         g.reset(np.array([0]), receiver=1)
+    h = Game(2, 1, seed=0, bodies=HumanLikeBodies(2, 1))
+    hips = h.bodies.hips.copy()
+    with pytest.raises(IndexError, match="games"):
+        h.reset(np.array([0, -1]))
+    assert same_bits(h.bodies.hips, hips)
     two = Game(2, 2, seed=0)
     two.reset(np.arange(2), receiver=-1)  # an index: the last player
     assert two.armed.tolist() == [[False, True], [False, True]]

@@ -136,8 +136,9 @@ class SimpleBodies(MjDataViews):
             raise ValueError(f"SIMPLE players take 3 actions each, got {actions.shape[-1]}")
         if actions.dtype not in (np.float32, np.float64):
             actions = actions.astype(np.float64)
-        # NumPy's arithmetic of the actions' own type, as the arrays' expressions had it: the
-        # constants in that type (the angle stays a float64: the target is one)
+        # float32 actions (a policy's) keep NumPy's float32 arithmetic, as the arrays'
+        # expressions had it: the constants in that type (the angle stays a float64: the
+        # target is one); other types are taken as float64
         kind = actions.dtype.type
         _ACT.get()(actions, self.target, self.torque_limit, self._neg_limit, self._base_step,
                    self.max_target_angle, kind(1.0), kind(0.5 * self.max_torque),
@@ -182,8 +183,8 @@ class SimpleBodies(MjDataViews):
 
 def _act(actions, target, torque_limit, neg_limit, base_step, angle, one, half_torque, step):
     """SIMPLE players' actions (N, P, 3) as their drive's target angle, its torque limits and
-    the base's movement per physics step (compiled: ``_ACT``), computed in the actions' type
-    (``one``, ``half_torque`` and ``step`` are of it)."""
+    the base's movement per physics step (compiled: ``_ACT``), computed in the actions' type,
+    float32 or float64 (``one``, ``half_torque`` and ``step`` are of it)."""
     for e in range(actions.shape[0]):
         for j in range(actions.shape[1]):
             target[e, j] = actions[e, j, 0] * angle

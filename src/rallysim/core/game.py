@@ -154,9 +154,11 @@ class Game:
         # (one receiver for all: np.full is several times cheaper than np.broadcast_to)
         receiver = (np.full(k, receiver) if receiver.ndim == 0
                     else np.array(np.broadcast_to(receiver, (k,))))
+        if k and not (envs.min() >= 0 and envs.max() < self.n_envs):
+            raise IndexError(f"games must be 0 to {self.n_envs - 1}, got {envs.tolist()[:10]}")
         if k and not (-p <= receiver.min() and receiver.max() < p):
-            raise IndexError(f"receivers must be players 0 to {p - 1}, got "
-                             f"{receiver.tolist()[:10]}")
+            raise IndexError(f"receivers must be players 0 to {p - 1} (or -{p} to -1, from the "
+                             f"last), got {receiver.tolist()[:10]}")
         receiver %= p  # (as an index: -1 is the last player)
         if base_x is None:
             base_x = np.full((k, self.n_players), -2.7)
