@@ -77,6 +77,8 @@ class ReturnTask:
         self.max_decisions = max_decisions
         self.goal = np.zeros(num_envs)
         self.elapsed = np.zeros(num_envs, np.int64)
+        # the ready term's best place: the middle of the base's range
+        self._ready_centre = 0.5 * sum(self.game.bodies.base_range)
 
     @property
     def extra_reward_keys(self) -> tuple[str, ...]:
@@ -161,13 +163,14 @@ class ReturnTask:
         ev = game.step(actions[:, None, :])
         hit = ev.hit[:, 0]
         returnable = self._returnable_reward(hit) if self.returnable > 0.0 else _NONE
-        b, trace = game.bodies, game.trace
+        state, trace = game.state, game.trace
         values = np.empty((7, self.n))
         flags = np.empty((2, self.n), bool)
         _OUTCOME.get()(ev.hit, ev.landed, ev.land_point, ev.land_side, ev.land_in,
-                       game.has_hit, game.net_touched, b.base_x, trace.gap, trace.moved,
-                       trace.live, trace.has_hit, self.goal, self.elapsed, self.max_decisions,
-                       returnable, self.ready, 0.5 * sum(b.base_range), values, flags)
+                       state.has_hit, state.net_touched, game.bodies.base_x, trace.gap,
+                       trace.moved, trace.live, trace.has_hit, self.goal, self.elapsed,
+                       self.max_decisions, returnable, self.ready, self._ready_centre, values,
+                       flags)
         reward, shaping, hit_reward, landing, depth, error, ready = values
         truncated, landed_in = flags
         info = {"hit": hit, "racket_speed": ev.hit_speed[:, 0], "net_touch": ev.net_touch,
