@@ -131,8 +131,9 @@ class SimpleReturnVectorEnv(TaskVectorEnv):
     """N environments of the SIMPLE low-level task stepped together in one call.
 
     The fast path: one MuJoCo model holds all N players and the rules run as one compiled
-    loop over the games, so there are no per-environment Python objects. ``autoreset_mode`` is ``"next_step"`` (the
-    Gymnasium default) or ``"same_step"``; see ``rallysim.envs.vector_base.NativeVectorEnv``.
+    loop over the games, so there are no per-environment Python objects. ``autoreset_mode``
+    is ``"next_step"`` (the Gymnasium default) or ``"same_step"``; see
+    ``rallysim.envs.vector_base.NativeVectorEnv``.
     """
 
     metadata = {"render_modes": RENDER_MODES, "render_fps": 10, "autoreset_mode": NEXT_STEP}

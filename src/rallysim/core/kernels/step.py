@@ -165,6 +165,20 @@ def steps_with(njit: Callable, pieces: Pieces) -> tuple[Callable, Callable, Call
             q[e, c, 0], q[e, c, 1], q[e, c, 2] = px, py, pz
 
     @inline
+    def start_from(a, k, e, p):
+        """What game ``e``'s next physics step starts from after its state was set by hand:
+        the shuttle in each face's frame and each base's x-distance to it."""
+        observe(a, k, e, p)
+        m = a.motion
+        for j in range(p):
+            a.gap[e, j] = abs(a.fwd[e, j] * m[0, e] - a.base_x[e, j])
+
+    @inline
+    def speed(x, y, z):
+        """|(x, y, z)|, summed as ``np.linalg.norm`` sums three components."""
+        return math.sqrt((x * x + y * y) + z * z)
+
+    @inline
     def entry(q0, q, lo, hi, e, c):
         """The swept overlap test (docs/reference.md §6) of column ``c`` of game ``e``: where
         the segment from ``q0`` to ``q`` enters the box [lo[c], hi[c]] (slabs, each axis's
@@ -214,10 +228,10 @@ def steps_with(njit: Callable, pieces: Pieces) -> tuple[Callable, Callable, Call
             m[3 + axis, e] = v
             m[axis, e] = at + v * (1.0 - t) * k.dt
             ev.hit_point[e, j, axis] = at
-        a.shot_speed[e] = math.sqrt((vx * vx + vy * vy) + vz * vz)
+        a.shot_speed[e] = speed(vx, vy, vz)
         a.shot_time[e] = 0.0
         ev.hit[e, j] = True
-        ev.hit_speed[e, j] = math.sqrt((rx * rx + ry * ry) + rz * rz)
+        ev.hit_speed[e, j] = speed(rx, ry, rz)
         ev.hit_velocity[e, j, 0], ev.hit_velocity[e, j, 1] = rx, ry
         ev.hit_velocity[e, j, 2] = rz
         a.has_hit[e, j] = True
@@ -375,8 +389,7 @@ def steps_with(njit: Callable, pieces: Pieces) -> tuple[Callable, Callable, Call
             e = envs[i]
             for axis in range(3):
                 m[axis, e], m[3 + axis, e] = pos[i, axis], vel[i, axis]
-            vx, vy, vz = vel[i, 0], vel[i, 1], vel[i, 2]
-            a.shot_speed[e] = math.sqrt((vx * vx + vy * vy) + vz * vz)
+            a.shot_speed[e] = speed(vel[i, 0], vel[i, 1], vel[i, 2])
             a.shot_time[e] = 0.0
             a.in_play[e] = True
             for j in range(p):
@@ -385,9 +398,7 @@ def steps_with(njit: Callable, pieces: Pieces) -> tuple[Callable, Callable, Call
             a.last_hitter[e] = SERVE
             a.hits[e] = 0
             a.net_touched[e] = False
-            observe(a, k, e, p)
-            for j in range(p):
-                a.gap[e, j] = abs(a.fwd[e, j] * m[0, e] - a.base_x[e, j])
+            start_from(a, k, e, p)
 
     @njit
     def refresh(a, constants):
@@ -396,11 +407,8 @@ def steps_with(njit: Callable, pieces: Pieces) -> tuple[Callable, Callable, Call
         it."""
         k = constants[0]
         n, p = a.fwd.shape
-        m, fwd, base_x = a.motion, a.fwd, a.base_x
         for e in range(n):
-            observe(a, k, e, p)
-            for j in range(p):
-                a.gap[e, j] = abs(fwd[e, j] * m[0, e] - base_x[e, j])
+            start_from(a, k, e, p)
 
     return steps_of, refresh, restart
 
