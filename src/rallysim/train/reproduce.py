@@ -488,6 +488,16 @@ LOSS_KEYS = ("serve_return", "first_return_miss", "early_loss", "later_miss_rate
 
 
 CLIMB_TOLERANCE = 0.1  # of the training cap: what a high level's last third may add
+# Checks that earlier runs wrote and that are no longer applied: reports and docs omit them.
+# The capped share per seed (issue 14's goal, then tested at cap 50) is a point estimate over
+# 200 rallies near the share that the spec's serves leave any player, so its verdict on a seed
+# was chance (docs/results.md, "Where rallies are lost"); the tables still print the counts.
+RETIRED_CHECKS = frozenset({"every_seed_hrl_capped_fraction_at_least_0.9"})
+
+
+def current_checks(r: dict[str, Any]) -> dict[str, bool]:
+    """A reproduction's checks that today's code applies (``RETIRED_CHECKS`` left out)."""
+    return {k: v for k, v in r.get("checks", {}).items() if k not in RETIRED_CHECKS}
 
 
 def last_climb(curve: dict[str, Any]) -> float | None:
@@ -546,8 +556,6 @@ def summarise(budget: Budget, curves: dict[int, dict[str, Any]], per_seed: dict[
         # lower early loss: HRL's whole interval below Monolithic's
         "hrl_early_loss_below_monolithic": (methods["HRL"]["early_loss"]["high"]
                                             < methods["Monolithic"]["early_loss"]["low"]),
-        "every_seed_hrl_capped_fraction_at_least_0.9": all(
-            v["capped"] >= 0.9 * v["n_rallies"] for v in hrl_seeds),
     }
     if budget.player == "humanlike" and cap >= 1000:  # issue 39: a median rally of 200 hits
         checks["hrl_median_at_least_200"] = methods["HRL"]["median"]["value"] >= 200
@@ -711,7 +719,7 @@ def markdown_report(r: dict[str, Any]) -> str:
         pairs,
         "",
         "Checks: " + ", ".join(f"{k}: **{'yes' if v else 'no'}**"
-                               for k, v in r.get("checks", {}).items()) + ".",
+                               for k, v in current_checks(r).items()) + ".",
         "",
         low_line,
         "",

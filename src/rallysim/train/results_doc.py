@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from rallysim.eval.rally_eval import PAPER_CAP
-from rallysim.train.reproduce import numerics_line, report_tables
+from rallysim.train.reproduce import current_checks, numerics_line, report_tables
 from rallysim.train.study_tables import RENDERERS
 
 BLOCK = re.compile(r"(<!-- BEGIN GENERATED: (?P<name>[\w.-]+) -->\n)(?P<body>.*?)"
@@ -28,7 +28,7 @@ BLOCK = re.compile(r"(<!-- BEGIN GENERATED: (?P<name>[\w.-]+) -->\n)(?P<body>.*?
 def render(results: dict[str, Any]) -> str:
     """The tables of one reproduction: pooled, per seed, where rallies are lost."""
     b, cap = results["budget"], results["cap"]
-    checks = results["checks"]
+    checks = current_checks(results)
     lines = [
         f"{b['seeds']} training seeds, {b['rallies']} evaluation rallies per seed and method, "
         f"rallies capped at {cap} hits.",
