@@ -321,7 +321,7 @@ def test_a_retired_check_is_not_printed_but_its_run_keeps_it():
     """A JSON written before a check was retired keeps the key; the docs' tables and the
     run's report print only the checks today's code applies."""
     from rallysim.train.reproduce import markdown_report
-    data = json.loads((DATA / "reproduce_default_generic.json").read_text())
+    data = json.loads((DATA / "reproduce_rally_shots_seeds10_generic.json").read_text())
     assert data["checks"]["every_seed_hrl_capped_fraction_at_least_0.9"] is False
     for text in (render(data), markdown_report(data)):
         assert "capped_fraction" not in text
