@@ -120,7 +120,7 @@ def test_the_servo_keeps_its_limits_and_reaches_the_speeds_it_wants():
     rng = np.random.default_rng(7)
     b.reset(np.arange(n), rng.uniform(-6, -1, (n, p)), rng.uniform(-1, 1, (n, p, N_JOINTS)))
     reached = 0
-    rate = b._constants[16:24]
+    rate = b._constants[0]["max_rate"]
     for k in range(200):
         if k % 5 == 0:  # targets near the pose or anywhere; some players limp
             a = rng.uniform(-1, 1, (n, p, N_ACTIONS))

@@ -164,22 +164,6 @@ class SimpleBodies(MjDataViews):
         out[..., 2] = self.pivot_z + self.face_offset * c
         return out
 
-    def face_velocity(self) -> np.ndarray:
-        """(N, P, 3) own-frame velocity of each face centre (arm rotation only,
-        docs/reference.md §5)."""
-        s, c = np.sin(self.theta), np.cos(self.theta)
-        out = np.zeros((*self.theta.shape, 3))
-        out[..., 0] = self.face_offset * self.omega * c
-        out[..., 2] = -self.face_offset * self.omega * s
-        return out
-
-    def arm_quaternion(self) -> np.ndarray:
-        """(N, P, 4) own-frame orientation (w, x, y, z) of each arm: a rotation about y."""
-        out = np.zeros((*self.theta.shape, 4))
-        out[..., 0] = np.cos(0.5 * self.theta)
-        out[..., 2] = np.sin(0.5 * self.theta)
-        return out
-
 
 def _act(actions, target, torque_limit, neg_limit, base_step, angle, one, half_torque, step):
     """SIMPLE players' actions (N, P, 3) as their drive's target angle, its torque limits and

@@ -47,7 +47,6 @@ GROUPS = ("spine", "chest", "upper_arm", "lower_arm", "hand")  # strength groups
 N_BODIES = len(GROUPS)
 JOINT_GROUP = np.array([0, 1, 2, 2, 2, 3, 4, 4])
 N_JOINTS, N_GROUPS = len(JOINTS), len(GROUPS)
-GROUP_SIZE = np.bincount(JOINT_GROUP)  # joints per group; a group's joints are consecutive
 # Action layout: movement x, y; one target per joint; one strength per group.
 MOVE, TARGET, STRENGTH = slice(0, 2), slice(2, 2 + N_JOINTS), slice(2 + N_JOINTS, None)
 N_ACTIONS = 2 + N_JOINTS + N_GROUPS
@@ -104,9 +103,10 @@ class HumanLikeBodies(MjDataViews):
         self._face0 = np.zeros((*shape, 3))  # world face centre at the last step's start
         self._side = np.zeros((*shape, N_JOINTS), dtype=np.int8)  # servos saturated at +-limit
         hips_lo, hips_hi = self.hips_range[:, 0], self.hips_range[:, 1]
-        self._constants = np.concatenate([self.lo, self.hi, self._joint_max_rate, [
-            dt, 2.0 * BRAKE_SHARE, MAX_JOINT_SPEED, *hips_lo, *hips_hi, self.hips_height,
-            ACTIVE_SET_ROUNDS]])  # humanlike_step's
+        self._constants = humanlike_step.body_constants(
+            lo=self.lo, hi=self.hi, max_rate=self._joint_max_rate, dt=dt,
+            brake=2.0 * BRAKE_SHARE, max_speed=MAX_JOINT_SPEED, hips_lo=hips_lo,
+            hips_hi=hips_hi, hips_height=self.hips_height, rounds=ACTIVE_SET_ROUNDS)
         self._dirty = True  # kinematics must be recomputed before they are read
         self._sync_mocap()
         self._sync()

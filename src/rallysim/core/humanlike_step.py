@@ -27,9 +27,23 @@ import numpy as np
 from rallysim.core import native
 from rallysim.core.kernels.numpy_scalars import np_max, np_min
 
-# ``constants`` layout (``HumanLikeBodies._constants``): lo, hi, rate (8 each), then these
-DT, BRAKE, MAX_SPEED, HIPS_LO, HIPS_HI, HIPS_HEIGHT, ROUNDS = 24, 25, 26, 27, 29, 31, 32
-N_CONSTANTS = 33
+# The bodies' constants, read by name: each joint's stops and top rate, the step, the brake's
+# factor, the speed ceiling, the hips' range and height, the active set's rounds.
+CONSTANTS_DTYPE = np.dtype([("lo", "f8", (8,)), ("hi", "f8", (8,)), ("max_rate", "f8", (8,)),
+                            ("dt", "f8"), ("brake", "f8"), ("max_speed", "f8"),
+                            ("hips_lo", "f8", (2,)), ("hips_hi", "f8", (2,)),
+                            ("hips_height", "f8"), ("rounds", "i8")])
+
+
+def body_constants(**values: object) -> np.ndarray:
+    """A (1,) record array of ``CONSTANTS_DTYPE`` holding ``values``, one per field."""
+    if set(values) != set(CONSTANTS_DTYPE.names):
+        raise ValueError(f"the HUMAN-LIKE constants are {CONSTANTS_DTYPE.names}, got "
+                         f"{tuple(values)}")
+    record = np.zeros(1, CONSTANTS_DTYPE)
+    for name, value in values.items():
+        record[name] = value
+    return record
 
 
 def beyond(tau: float, lim: float) -> int:
@@ -67,16 +81,18 @@ def _solve_with(dgesv: Callable) -> Callable:
 def _physics_step_with(mj_step1: Callable, mj_step2: Callable, solve: Callable,
                        row_sums: Callable, np_min: Callable, np_max: Callable,
                        beyond: Callable) -> Callable:
-    """``physics_step(model, data, <the bodies' arrays>, forward, k)`` over all N x P
+    """``physics_step(model, data, <the bodies' arrays>, forward, constants)`` over all N x P
     players (see the module docstring; the why of each formula is in
     ``rallysim.core.humanlike``'s docstring)."""
 
     def physics_step(model, data, mass, m_index, qpos, qvel, ctrl, bias, target, torque_limit,
                      side_a, face0, face, hips, hips_step, hips_velocity, moved, mocap,
-                     forward, k):
+                     forward, constants):
         n_envs, n_players = qpos.shape[0], qpos.shape[1]
-        inv_dt = 1.0 / k[DT]
-        rounds = int(k[ROUNDS])
+        k = constants[0]
+        lo, hi, max_rate, hips_lo, hips_hi = k.lo, k.hi, k.max_rate, k.hips_lo, k.hips_hi
+        inv_dt = 1.0 / k.dt
+        rounds = k.rounds
         M, products, masked, A = (np.empty((8, 8)), np.empty((8, 8)), np.empty((8, 8)),
                                   np.empty((8, 8)))
         lim, acc, tau, bound, r, u = (np.empty(8), np.empty(8), np.empty(8), np.empty(8),
@@ -96,9 +112,9 @@ def _physics_step_with(mj_step1: Callable, mj_step2: Callable, solve: Callable,
                     lim[i] = torque_limit[e, p, i]
                     err = target[e, p, i] - qpos[e, p, i]
                     size = abs(err)
-                    speed = math.sqrt(k[BRAKE] * lim[i] / M[i, i] * size)
+                    speed = math.sqrt(k.brake * lim[i] / M[i, i] * size)
                     speed = np_min(speed, size * inv_dt)
-                    speed = np_min(speed, k[16 + i])
+                    speed = np_min(speed, max_rate[i])
                     acc[i] = (math.copysign(speed, err) - qvel[e, p, i]) * inv_dt
                 for i in range(8):
                     for j in range(8):
@@ -144,19 +160,19 @@ def _physics_step_with(mj_step1: Callable, mj_step2: Callable, solve: Callable,
                     side_a[e, p, i] = side[i]
                     ctrl[e, p, i] = np_min(np_max(tau[i], -lim[i]), lim[i])
         mj_step2(model, data)
-        top = k[MAX_SPEED]
+        top = k.max_speed
         for e in range(n_envs):
             for p in range(n_players):
                 # -- joint stops: a joint past one is put back and stopped; the speed ceiling
                 stopped = False
                 for i in range(8):
                     x = qpos[e, p, i]
-                    if x > k[8 + i] or x < k[i]:
+                    if x > hi[i] or x < lo[i]:
                         stopped = True
                         qvel[e, p, i] = 0.0
                 if stopped:
                     for i in range(8):
-                        qpos[e, p, i] = np_min(np_max(qpos[e, p, i], k[i]), k[8 + i])
+                        qpos[e, p, i] = np_min(np_max(qpos[e, p, i], lo[i]), hi[i])
                 for i in range(8):
                     qvel[e, p, i] = np_min(np_max(qvel[e, p, i], -top), top)
                 # -- the hips, clipped into their range; the mocap body follows (world frame)
@@ -164,14 +180,14 @@ def _physics_step_with(mj_step1: Callable, mj_step2: Callable, solve: Callable,
                 m = False
                 for i in range(2):
                     x = hips[e, p, i]
-                    x1 = np_min(np_max(x + hips_step[e, p, i], k[HIPS_LO + i]), k[HIPS_HI + i])
+                    x1 = np_min(np_max(x + hips_step[e, p, i], hips_lo[i]), hips_hi[i])
                     v = (x1 - x) * inv_dt
                     hips_velocity[e, p, i] = v
                     m = m or v != 0.0
                     hips[e, p, i] = x1
                     mocap[e, p, i] = x1 * f
                 moved[e, p] = m
-                mocap[e, p, 2] = k[HIPS_HEIGHT]
+                mocap[e, p, 2] = k.hips_height
         mj_step1(model, data)
 
     return physics_step

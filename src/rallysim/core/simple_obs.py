@@ -36,10 +36,6 @@ PLAYER_OBS_SIZE = PLAYER_OBS.size  # 16
 TARGET_DEPTH_RANGE = (2.0, 6.0)  # docs/reference.md §6/§8: goals are landing depths beyond the net
 
 
-def normalise_position(p: np.ndarray) -> np.ndarray:
-    return (p - POSITION_CENTRE) / POSITION_SCALE
-
-
 def normalise_depth(depth: np.ndarray) -> np.ndarray:
     lo, hi = TARGET_DEPTH_RANGE
     return (np.asarray(depth) - 0.5 * (lo + hi)) / (0.5 * (hi - lo))
