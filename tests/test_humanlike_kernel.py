@@ -204,3 +204,19 @@ def test_traced_games_replay_a_batch():
         if len(ended):
             batch.reset(ended)
     assert good > 50 and bad > 50 and rallies >= 5, (good, bad, rallies)
+
+
+def test_the_step_constants_are_named_and_checked():
+    """The step's constants are a named record: a missing name or a number where a joint's
+    row belongs is refused rather than filled in."""
+    from rallysim.core import humanlike_step as hs
+    b = HumanLikeBodies(2, 1)
+    k = b._constants[0]
+    assert k["dt"] == b.dt and k["rounds"] == 8 and k["hips_height"] == b.hips_height
+    assert np.array_equal(k["lo"], b.lo) and np.array_equal(k["hi"], b.hi)
+    values = {name: k[name] for name in hs.CONSTANTS_DTYPE.names}
+    assert hs.body_constants(**values).tobytes() == b._constants.tobytes()
+    with pytest.raises(ValueError, match="lo must have shape"):
+        hs.body_constants(**{**values, "lo": 0.0})
+    with pytest.raises(ValueError, match="constants are"):
+        hs.body_constants(**{k: v for k, v in values.items() if k != "dt"})

@@ -42,6 +42,9 @@ def body_constants(**values: object) -> np.ndarray:
                          f"{tuple(values)}")
     record = np.zeros(1, CONSTANTS_DTYPE)
     for name, value in values.items():
+        if np.shape(value) != CONSTANTS_DTYPE[name].shape:  # (a number would fill a row)
+            raise ValueError(f"{name} must have shape {CONSTANTS_DTYPE[name].shape}, got "
+                             f"{np.shape(value)}")
         record[name] = value
     return record
 
