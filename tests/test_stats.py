@@ -74,3 +74,25 @@ def test_loss_statistics_with_nothing_to_count_or_cap_one():
     capped_at_one = summarise_rallies([np.array([1, 1, 1, 0])], cap=1, n_boot=50)
     assert capped_at_one.early_loss.value == pytest.approx(0.25)  # the capped ones were not lost
     assert np.isnan(capped_at_one.first_return_miss.value)
+
+
+def test_estimate_is_the_summarys_own_interval():
+    """``estimate`` draws the replicates ``summarise_rallies`` draws: the same capped share."""
+    from rallysim.eval.stats import capped_fraction
+    rng = np.random.default_rng(3)
+    groups = [rng.integers(0, 51, 200), rng.integers(0, 51, 150)]
+    summary = summarise_rallies(groups, cap=50)
+    assert estimate(groups, capped_fraction(50)) == summary.capped_fraction
+
+
+def test_the_capped_check_fails_only_a_seed_shown_below_the_goal():
+    """A seed whose 200 rallies reach the cap 180 or 172 times is not shown below 90 % (its
+    interval reaches 0.9); one at 160 (80 %) is, as is machine seed 2 at cap 1000 (59 of 200)."""
+    from rallysim.train.reproduce import capped_check
+
+    def seed(capped: int, cap: int = 50) -> dict:
+        return {"lengths": {"HRL": [cap] * capped + [1] * (200 - capped)}}
+
+    assert capped_check({"0": seed(180), "1": seed(172)}, 50)
+    assert not capped_check({"0": seed(180), "1": seed(160)}, 50)
+    assert not capped_check({"0": seed(59, 1000)}, 1000)

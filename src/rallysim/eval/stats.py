@@ -101,6 +101,11 @@ def serve_return(x: np.ndarray) -> np.ndarray:
     return (x >= 1).mean(axis=-1)
 
 
+def capped_fraction(cap: int) -> Statistic:
+    """Share of rallies that reached the cap."""
+    return lambda x: (x >= cap).mean(axis=-1)
+
+
 def early_loss(cap: int) -> Statistic:
     """Share of rallies lost before the second hit (the serve or its first return missed); a
     rally that reached the cap was not lost."""
@@ -182,13 +187,10 @@ def summarise_rallies(groups: Sequence[np.ndarray], cap: int = 50, n_boot: int =
         return Estimate(float(stat(data[None])[0]), float(np.nanquantile(r, 0.025)),
                         float(np.nanquantile(r, 0.975)))
 
-    def capped_fraction(x: np.ndarray) -> np.ndarray:
-        return (x >= cap).mean(axis=-1)
-
     return RallySummary(
         n_rallies=len(data), n_seeds=len(groups), cap=cap,
         mean=est(mean), median=est(median), iqm=est(iqm),
-        capped=int((data >= cap).sum()), capped_fraction=est(capped_fraction),
+        capped=int((data >= cap).sum()), capped_fraction=est(capped_fraction(cap)),
         serve_return=est(serve_return), first_return_miss=est(first_return_miss(cap)),
         early_loss=est(early_loss(cap)), later_miss_rate=est(later_miss_rate(cap)),
         survival_k=ks.tolist(), survival=surv.tolist(),
