@@ -489,7 +489,7 @@ LOSS_KEYS = ("serve_return", "first_return_miss", "early_loss", "later_miss_rate
 
 CLIMB_TOLERANCE = 0.1  # of the training cap: what a high level's last third may add
 CAPPED_GOAL = 0.9  # of HRL's rallies reaching the cap, on every seed (issue 14's goal)
-CAPPED_CHECK = f"no_seed_hrl_capped_share_shown_below_{CAPPED_GOAL}"
+CAPPED_CHECK = f"no_seed_hrl_capped_share_ci_below_{CAPPED_GOAL}"
 # Checks that earlier runs wrote and that are no longer applied: reports and docs omit them.
 # The capped share's point estimate over a seed's 200 rallies decided seeds near the goal by
 # chance (docs/results.md, "Where rallies are lost"); ``CAPPED_CHECK`` replaces it.
@@ -571,10 +571,11 @@ def summarise(budget: Budget, curves: dict[int, dict[str, Any]], per_seed: dict[
         # lower early loss: HRL's whole interval below Monolithic's
         "hrl_early_loss_below_monolithic": (methods["HRL"]["early_loss"]["high"]
                                             < methods["Monolithic"]["early_loss"]["low"]),
-        CAPPED_CHECK: capped_check({str(s): per_seed[s] for s in seeds}, cap),
     }
     if budget.player == "humanlike" and cap >= 1000:  # issue 39: a median rally of 200 hits
         checks["hrl_median_at_least_200"] = methods["HRL"]["median"]["value"] >= 200
+    # (last, where current_checks puts it for the runs made before it)
+    checks[CAPPED_CHECK] = capped_check({str(s): per_seed[s] for s in seeds}, cap)
     paper = ({"table_vii": PAPER_TABLE_VII, "low_level_reward": PAPER_LOW_REWARD}
              if budget.player == "simple" else None)  # (the paper has no 3-D table)
     return {
