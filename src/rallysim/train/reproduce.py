@@ -510,8 +510,10 @@ def current_checks(r: dict[str, Any]) -> dict[str, bool]:
     """A reproduction's checks as today's code applies them: ``RETIRED_CHECKS`` left out, and
     ``CAPPED_CHECK`` computed from the rallies where a run made before it lacks it."""
     checks = {k: v for k, v in r.get("checks", {}).items() if k not in RETIRED_CHECKS}
-    if CAPPED_CHECK not in checks and "per_seed" in r:
-        checks[CAPPED_CHECK] = capped_check(r["per_seed"], r.get("cap", PAPER_CAP))
+    seeds = r.get("per_seed") or {}
+    if CAPPED_CHECK not in checks and seeds and all(
+            "HRL" in v.get("lengths", {}) for v in seeds.values()):
+        checks[CAPPED_CHECK] = capped_check(seeds, r.get("cap", PAPER_CAP))
     return checks
 
 
