@@ -7,20 +7,19 @@ interpolated) and the shot (along that velocity at min(60, 5 |v|) m/s, docs/refe
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from typing import Any
 
 from rallysim.core import humanlike_step, native
 from rallysim.core.kernels import step
 from rallysim.core.kernels.arrays import HumanLikeArrays
-from rallysim.core.kernels.numpy_scalars import np_min
+from rallysim.core.kernels.numpy_scalars import norm3, np_min
 
 
 def pieces_with(njit: Callable, physics_step: Callable) -> step.Pieces:
     """HUMAN-LIKE's ``step.Pieces``, around the bodies' compiled ``physics_step``."""
     inline = njit(inline="always")
-    upper = inline(np_min)
+    upper, length = inline(np_min), inline(norm3)
 
     @inline
     def move(model, data, a, k, n, p):
@@ -49,7 +48,7 @@ def pieces_with(njit: Callable, physics_step: Callable) -> step.Pieces:
 
     @inline
     def shot(x, y, z):
-        speed = math.sqrt((x * x + y * y) + z * z)
+        speed = length(x, y, z)
         scale = upper(60.0, 5.0 * speed) / speed if speed > 0.0 else 0.0
         return x * scale, y * scale, z * scale
 

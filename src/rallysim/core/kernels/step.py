@@ -21,13 +21,13 @@ The state is read by name: the kind's arrays (held in one structref per game,
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from typing import Any, NamedTuple, get_type_hints
 
 import numpy as np
 
 from rallysim.core import native
+from rallysim.core.kernels.numpy_scalars import norm3
 from rallysim.core.shuttle import (
     FLIGHT_FIELDS,
     RADIUS,
@@ -150,6 +150,7 @@ def steps_with(njit: Callable, pieces: Pieces) -> tuple[Callable, Callable, Call
     helpers are inlined where they are called, and those run per game take only the arrays
     they use."""
     inline = njit(inline="always")
+    speed = inline(norm3)
     move, face_point, racket, shot = pieces
     substeps, fly = flight_with(njit)
 
@@ -172,11 +173,6 @@ def steps_with(njit: Callable, pieces: Pieces) -> tuple[Callable, Callable, Call
         m = a.motion
         for j in range(p):
             a.gap[e, j] = abs(a.fwd[e, j] * m[0, e] - a.base_x[e, j])
-
-    @inline
-    def speed(x, y, z):
-        """|(x, y, z)|, summed as ``np.linalg.norm`` sums three components."""
-        return math.sqrt((x * x + y * y) + z * z)
 
     @inline
     def entry(q0, q, lo, hi, e, c):
