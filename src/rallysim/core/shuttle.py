@@ -150,13 +150,14 @@ def substeps(m: np.ndarray, k: Any, n: int) -> int:
     return max(1, count)
 
 
-def fly(m: np.ndarray, shot_time_a: np.ndarray, shot_speed_a: np.ndarray, k: Any, e: int,
-        count: int) -> None:
-    """Shuttle ``e`` (``m``: the motion) through one step of ``k.dt`` seconds, its shot time
-    on: the paper flight (docs/reference.md §4.1: v <- (v + g dt)(1 - c dt); p <- p + v dt),
-    with Algorithm 1's speed s0 (1 - t) in its window (paper-alg1), or aero's ``count``
-    sub-steps (docs/reference.md §4.2: gravity split around an exact drag step)."""
-    px, py, pz, vx, vy, vz = m[0, e], m[1, e], m[2, e], m[3, e], m[4, e], m[5, e]
+def fly(px: float, py: float, pz: float, vx: float, vy: float, vz: float, shot_time: float,
+        shot_speed: float, k: Any, count: int) -> tuple:
+    """A shuttle at (px, py, pz) moving at (vx, vy, vz) through one step of ``k.dt`` seconds:
+    the paper flight (docs/reference.md §4.1: v <- (v + g dt)(1 - c dt); p <- p + v dt), with
+    Algorithm 1's speed s0 (1 - t) in its window (paper-alg1), or aero's ``count`` sub-steps
+    (docs/reference.md §4.2: gravity split around an exact drag step). Returns the new
+    position, velocity and shot time (numbers in, numbers out: compiled and inlined, this
+    passes no array)."""
     dt = k.dt
     if k.flight == AERO:
         h = dt / count
@@ -171,7 +172,7 @@ def fly(m: np.ndarray, shot_time_a: np.ndarray, shot_speed_a: np.ndarray, k: Any
             px += vx * h
             py += vy * h
             pz += vz * h
-        shot_time = shot_time_a[e] + dt
+        shot_time = shot_time + dt
     else:
         vz -= k.fall
         f = k.factor
@@ -181,17 +182,16 @@ def fly(m: np.ndarray, shot_time_a: np.ndarray, shot_speed_a: np.ndarray, k: Any
         px += vx * dt
         py += vy * dt
         pz += vz * dt
-        shot_time = shot_time_a[e] + dt
+        shot_time = shot_time + dt
         if k.flight == PAPER_ALG1 and shot_time < k.window:
             # the speed forced to s0 (1 - t), direction kept (np.linalg.norm's sum)
             speed = math.sqrt((vx * vx + vy * vy) + vz * vz)
-            target = shot_speed_a[e] * (1.0 - shot_time)
+            target = shot_speed * (1.0 - shot_time)
             r = target / speed if speed > 0 else 0.0
             vx *= r
             vy *= r
             vz *= r
-    shot_time_a[e] = shot_time
-    m[0, e], m[1, e], m[2, e], m[3, e], m[4, e], m[5, e] = px, py, pz, vx, vy, vz
+    return px, py, pz, vx, vy, vz, shot_time
 
 
 def flight_with(njit: Callable) -> tuple[Callable, Callable]:
@@ -208,7 +208,9 @@ def _advance_with(njit: Callable) -> Callable:
         n = m.shape[1]
         count = count_of(m, k, n)
         for e in range(n):
-            fly_one(m, shot_time, shot_speed, k, e, count)
+            (m[0, e], m[1, e], m[2, e], m[3, e], m[4, e], m[5, e], shot_time[e]) = fly_one(
+                m[0, e], m[1, e], m[2, e], m[3, e], m[4, e], m[5, e], shot_time[e],
+                shot_speed[e], k, count)
 
     return advance
 

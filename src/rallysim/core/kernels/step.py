@@ -326,11 +326,11 @@ def steps_with(njit: Callable, pieces: Pieces) -> tuple[Callable, Callable, Call
         for e in range(n):
             live = in_play[e] and active[e]
             if live:
-                fly(m, shot_time, shot_speed, k, e, count)
+                (m[0, e], m[1, e], m[2, e], m[3, e], m[4, e], m[5, e], shot_time[e]) = fly(
+                    m[0, e], m[1, e], m[2, e], m[3, e], m[4, e], m[5, e], shot_time[e],
+                    shot_speed[e], k, count)
             else:  # a held shuttle stays put (its shot time runs on) until its env is reset
-                px, py, pz, vx, vy, vz = m[0, e], m[1, e], m[2, e], m[3, e], m[4, e], m[5, e]
-                fly(m, shot_time, shot_speed, k, e, count)
-                m[0, e], m[1, e], m[2, e], m[3, e], m[4, e], m[5, e] = px, py, pz, vx, vy, vz
+                shot_time[e] = shot_time[e] + k.dt
             observe(a, k, e, p)
             # the trace: each base's x-distance to the shuttle, its motion, the hit state
             px = m[0, e]
