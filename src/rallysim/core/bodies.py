@@ -36,9 +36,6 @@ class PlayerBodies(Protocol):
 
     def reset(self, envs: np.ndarray, base_x: np.ndarray, pose: Any = 0.0) -> None: ...
     def set_actions(self, actions: np.ndarray) -> None: ...
-    def racket_velocity(self, env: np.ndarray, player: np.ndarray, t: np.ndarray) -> np.ndarray:
-        """Own-frame face-centre velocity of (env, player) pairs at fraction ``t`` of the
-        last physics step, (k, 3)."""
     def snapshot(self, envs: np.ndarray) -> Any: ...
     def restore(self, envs: np.ndarray, saved: Any) -> None: ...
 
@@ -207,18 +204,24 @@ _PLACE = native.Kernel(lambda: native.jit(_place))
 
 
 def build_simple_world(n_envs: int, n_players: int, dt: float = 0.02) -> mujoco.MjModel:
-    """One MjModel with ``n_envs * n_players`` SIMPLE players, ordered env-major.
+    """One MjModel with ``n_envs * n_players`` SIMPLE players, ordered env-major
+    (``build_world``); the arms are gravity-compensated (docs/reference.md §5)."""
+    return build_world("simple_player.xml", n_envs, n_players, dt)
 
-    Nothing in it collides and the arm's hard stops are applied by ``SimpleBodies``, so contact
-    and constraint handling are switched off; the arms are gravity-compensated
-    (docs/reference.md §5)."""
+
+def build_world(xml: str, n_envs: int, n_players: int, dt: float) -> mujoco.MjModel:
+    """One MjModel with ``n_envs * n_players`` copies of the player file ``xml``, env-major,
+    player 1's copies turned 180 degrees about z; Euler steps of ``dt``.
+
+    Nothing in it collides and the bodies apply their joints' hard stops themselves, so
+    contact and constraint handling are switched off."""
     spec = mujoco.MjSpec()
     spec.option.timestep = dt
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_EULER
     spec.option.disableflags |= (
         mujoco.mjtDisableBit.mjDSBL_CONTACT | mujoco.mjtDisableBit.mjDSBL_CONSTRAINT
     )
-    player_xml = asset_path("simple_player.xml").read_text()
+    player_xml = asset_path(xml).read_text()
     for e in range(n_envs):
         for p in range(n_players):
             frame = spec.worldbody.add_frame()

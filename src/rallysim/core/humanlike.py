@@ -35,7 +35,7 @@ import numpy as np
 
 from rallysim.assets import asset_path
 from rallysim.core import humanlike_step
-from rallysim.core.bodies import MjDataViews
+from rallysim.core.bodies import MjDataViews, build_world
 from rallysim.core.rules import FORWARD
 
 XML = "humanlike_player.xml"
@@ -195,14 +195,6 @@ class HumanLikeBodies(MjDataViews):
         return (self.qpos, self.qvel, self.torque, self.hips, self.hips_velocity, self.target,
                 self.torque_limit, self._side)
 
-    def racket_velocity(self, env: np.ndarray, player: np.ndarray, t: np.ndarray) -> np.ndarray:
-        """Own-frame face-centre velocity over the last physics step (its displacement / dt,
-        the motion the swept hit test interpolated); the same at every fraction ``t``. The game
-        reports it at a hit as ``Events.hit_velocity``."""
-        v = (self._face_pos[env, player] - self._face0[env, player]) * self.flip[env, player]
-        v *= 1.0 / self.dt
-        return v
-
     # -- kinematics (own frame) ----------------------------------------------------------------
     def hips_position(self) -> np.ndarray:
         """(N, P, 3) own-frame hips centre."""
@@ -242,25 +234,10 @@ class HumanLikeBodies(MjDataViews):
 
 
 def build_humanlike_world(n_envs: int, n_players: int, dt: float = 0.02) -> mujoco.MjModel:
-    """One MjModel with ``n_envs * n_players`` HUMAN-LIKE players, ordered env-major.
-
-    Nothing collides and the joint stops are applied by ``HumanLikeBodies``, so contacts and
-    constraints are off; plain Euler integration is exact for the servo, which plans each
+    """One MjModel with ``n_envs * n_players`` HUMAN-LIKE players, ordered env-major
+    (``bodies.build_world``); plain Euler integration is exact for the servo, which plans each
     step's velocity change with Euler's own update."""
-    spec = mujoco.MjSpec()
-    spec.option.timestep = dt
-    spec.option.integrator = mujoco.mjtIntegrator.mjINT_EULER
-    spec.option.disableflags |= (
-        mujoco.mjtDisableBit.mjDSBL_CONTACT | mujoco.mjtDisableBit.mjDSBL_CONSTRAINT
-    )
-    player_xml = asset_path(XML).read_text()
-    for e in range(n_envs):
-        for p in range(n_players):
-            frame = spec.worldbody.add_frame()
-            if p == 1:
-                frame.quat = [0.0, 0.0, 0.0, 1.0]  # 180 degrees about z
-            spec.attach(mujoco.MjSpec.from_string(player_xml), prefix=f"e{e}p{p}_", frame=frame)
-    return spec.compile()
+    return build_world(XML, n_envs, n_players, dt)
 
 
 def _check_layout(m: mujoco.MjModel, n: int) -> None:
