@@ -157,8 +157,9 @@ class NativeVectorEnv(VectorEnv):
             slot_done = np.repeat(done, k)
             final_info = {key: v.copy() if isinstance(v, np.ndarray) else v
                           for key, v in info.items()}
-            final = np.where(slot_done[:, None], obs, np.nan)
-            info["final_obs"] = final.astype(np.float32, copy=False)
+            final = np.full(obs.shape, np.nan, np.float32)
+            final[slot_done] = obs[slot_done]
+            info["final_obs"] = final
             info["_final_obs"] = slot_done
             info["final_info"] = final_info
             info["_final_info"] = slot_done.copy()
