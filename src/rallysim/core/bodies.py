@@ -74,6 +74,7 @@ class SimpleBodies(MjDataViews):
     max_torque = 15.0  # N m at force action +1
     max_rate = 7.0  # rad/s, Unity's default angular-speed cap
     max_base_speed = 5.0  # m/s at movement action +-1
+    shot_factor = 2.0  # a hit sends the shuttle off at twice the face's velocity
     base_range = (-6.5, -1.0)  # own-frame x of the base centre
 
     def __init__(self, n_envs: int, n_players: int = 1, dt: float = 0.02) -> None:

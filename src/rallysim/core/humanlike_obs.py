@@ -39,6 +39,7 @@ PLAYER_OBS_SIZE = PLAYER_OBS.size  # 82
 BODY_SPEED_SCALE = 15.0  # m/s: the hand of a full-speed swing
 BODY_RATE_SCALE = 40.0  # rad/s: joints are capped at 30 (50 when limp)
 BODY_OFFSET_SCALE = 1.5  # m: the hand reaches 1.2 m from the hips
+TARGET_SCALE = 5.0  # m/s: observed target = v* / 5; an option's components must lie in +-5
 SHUTTLE = slice(PLAYER_OBS["shuttle_position"].start, PLAYER_OBS["shuttle_velocity"].stop)
 HIPS = PLAYER_OBS["hips_position"]
 RACKET = PLAYER_OBS["racket_position"]

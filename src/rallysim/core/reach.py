@@ -81,7 +81,7 @@ class ShotPlanner:
         self.rho, self.pivot_z = geo["face_offset"], geo["pivot_z"]
         self.limit = geo["limit"]
         self.rate = b.max_rate
-        self.speed = 2.0 * b.max_rate * self.rho  # shot speed of a full-speed swing
+        self.speed = b.shot_factor * b.max_rate * self.rho  # shot speed of a full-speed swing
         self.base_range = b.base_range
         self.base_speed = b.max_base_speed
         self.factor = PaperShuttle(PHYSICS_DT).factor

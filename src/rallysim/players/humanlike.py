@@ -12,8 +12,8 @@ import numpy as np
 
 from rallysim.core.humanlike import HumanLikeBodies
 from rallysim.core.humanlike_obs import PLAYER_OBS as OBS
+from rallysim.core.humanlike_obs import TARGET_SCALE, opponent_positions
 from rallysim.core.humanlike_obs import observations_with as observe_with
-from rallysim.core.humanlike_obs import opponent_positions
 from rallysim.core.humanlike_obs import player_observations as observe
 from rallysim.core.rules import SERVE_DRAWS
 from rallysim.core.serve import HumanLikeServe
@@ -26,7 +26,6 @@ ACTION = Layout((("movement", 2), ("spine_z", 1), ("chest_z", 1), ("upper_arm", 
 TARGET_SPEED = (1.5, 4.5)  # m/s
 TARGET_ELEVATION = (np.radians(40.0), np.radians(50.0))
 TARGET_AZIMUTH = (np.radians(-30.0), np.radians(30.0))
-TARGET_SCALE = 5.0  # m/s: observed target = v* / 5; an option's components must lie in +-5
 GOAL = GoalSpec(size=3, low=(-1.0, -1.0, -1.0), high=(1.0, 1.0, 1.0), default=(0.0, 0.0, 0.0),
                 unit="", mapping="target racket velocity: speed 1.5 + 1.5 (a0 + 1) m/s, "
                 "elevation 40 + 5 (a1 + 1) deg, azimuth 30 a2 deg (own frame)")

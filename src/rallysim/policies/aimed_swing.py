@@ -41,12 +41,17 @@ import numpy as np
 from rallysim.assets import asset_path
 from rallysim.core.game import PHYSICS_DT, PHYSICS_STEPS_PER_DECISION
 from rallysim.core.humanlike import GROUPS, JOINTS, HumanLikeBodies, humanlike_geometry
-from rallysim.core.humanlike_obs import BODY_OBS_SIZE, BODY_RATE_SCALE, HIPS, SHUTTLE
+from rallysim.core.humanlike_obs import (
+    BODY_OBS_SIZE,
+    BODY_RATE_SCALE,
+    HIPS,
+    SHUTTLE,
+    TARGET_SCALE,
+)
 from rallysim.core.shuttle import ShuttleState, make_shuttle_model
 from rallysim.core.simple_obs import POSITION_CENTRE, POSITION_SCALE, SHUTTLE_SPEED_SCALE
 
-TARGET = slice(82, 85)  # the task's target racket velocity / 5 m/s
-TARGET_SCALE = 5.0
+TARGET = slice(82, 85)  # the task's target racket velocity / TARGET_SCALE
 FORWARD_SWING = np.radians(30.0)  # upper_arm_y of every pose
 MEET_STEP = 3  # the coasting decision's physics step (1-based) the shuttle is met in
 RAISE_HIGHEST = np.radians(20.0)  # the highest meeting: face 0.83 m above the hips centre

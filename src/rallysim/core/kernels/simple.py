@@ -16,9 +16,12 @@ from typing import Any
 import numpy as np
 
 from rallysim.core import native
+from rallysim.core.bodies import SimpleBodies
 from rallysim.core.kernels import step
 from rallysim.core.kernels.arrays import SimpleArrays
 from rallysim.core.kernels.numpy_scalars import np_max, np_min
+
+SHOT = SimpleBodies.shot_factor  # (a number frozen into the compiled shot)
 
 
 def pieces_with(njit: Callable, mj_step: Callable, sin: Callable, cos: Callable) -> step.Pieces:
@@ -77,7 +80,7 @@ def pieces_with(njit: Callable, mj_step: Callable, sin: Callable, cos: Callable)
 
     @inline
     def shot(x, y, z):
-        return 2.0 * x, 2.0 * y, 2.0 * z
+        return SHOT * x, SHOT * y, SHOT * z
 
     return step.Pieces(move, face_point, racket, shot)
 

@@ -10,11 +10,11 @@ import numpy as np
 
 from rallysim.core.game import Game
 from rallysim.core.humanlike import N_ACTIONS, HumanLikeBodies
-from rallysim.core.humanlike_obs import PLAYER_OBS_SIZE, player_observations
+from rallysim.core.humanlike_obs import PLAYER_OBS_SIZE, TARGET_SCALE, player_observations
 from rallysim.core.rules import SERVE_DRAWS
 from rallysim.core.serve import HumanLikeServe
 from rallysim.core.validation import positive_int, read_options
-from rallysim.players.humanlike import TARGET_SCALE, sample_targets
+from rallysim.players.humanlike import sample_targets
 
 OBS_SIZE = PLAYER_OBS_SIZE + 3  # 85
 ACTION_SIZE = N_ACTIONS  # 15
