@@ -10,8 +10,8 @@ pytest.importorskip("torch")
 
 import torch
 
+from rallysim.core.humanlike_obs import TARGET_SCALE
 from rallysim.players import get_player
-from rallysim.players.humanlike import TARGET_SCALE
 from rallysim.policies.aimed_swing import AimedSwing
 from rallysim.train.config import load_config
 from rallysim.train.stages.low import LOW
