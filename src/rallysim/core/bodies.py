@@ -102,6 +102,11 @@ class SimpleBodies(MjDataViews):
         self._neg_limit = np.zeros(shape)
         self._base_step = np.zeros(shape)  # metres per physics step
         self._theta0 = np.zeros(shape)  # arm angles at the start of the last physics step
+        # ``set_actions``' constants in each type actions may come in (made once: a call
+        # costs less without making them)
+        self._act_numbers = {np.dtype(kind): (kind(1.0), kind(0.5 * self.max_torque),
+                                              kind(self.max_base_speed * dt))
+                             for kind in (np.float32, np.float64)}
         self._sync_mocap()
         mujoco.mj_forward(self.model, self.data)
 
@@ -132,15 +137,15 @@ class SimpleBodies(MjDataViews):
         """Hold ``actions`` (N, P, 3), already clipped to [-1, 1], for the next physics steps."""
         if actions.shape[-1] != 3:
             raise ValueError(f"SIMPLE players take 3 actions each, got {actions.shape[-1]}")
-        if actions.dtype not in (np.float32, np.float64):
-            actions = actions.astype(np.float64)
         # float32 actions (a policy's) keep NumPy's float32 arithmetic, as the arrays'
         # expressions had it: the constants in that type (the angle stays a float64: the
         # target is one); other types are taken as float64
-        kind = actions.dtype.type
+        numbers = self._act_numbers.get(actions.dtype)
+        if numbers is None:
+            actions = actions.astype(np.float64)
+            numbers = self._act_numbers[actions.dtype]
         _ACT.get()(actions, self.target, self.torque_limit, self._neg_limit, self._base_step,
-                   self.max_target_angle, kind(1.0), kind(0.5 * self.max_torque),
-                   kind(self.max_base_speed * self.dt))
+                   self.max_target_angle, *numbers)
 
     def _sync_mocap(self) -> None:
         self.mocap[..., 0] = self.forward * self.base_x
