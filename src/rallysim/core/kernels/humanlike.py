@@ -47,7 +47,7 @@ def pieces_with(njit: Callable, physics_step: Callable) -> step.Pieces:
                 (a.face[e, j, 2] - a.face0[e, j, 2]) * 1.0 * k.inv_dt)
 
     @inline
-    def shot(x, y, z):
+    def shot(k, x, y, z):
         speed = length(x, y, z)
         scale = upper(60.0, 5.0 * speed) / speed if speed > 0.0 else 0.0
         return x * scale, y * scale, z * scale

@@ -16,12 +16,9 @@ from typing import Any
 import numpy as np
 
 from rallysim.core import native
-from rallysim.core.bodies import SimpleBodies
 from rallysim.core.kernels import step
 from rallysim.core.kernels.arrays import SimpleArrays
 from rallysim.core.kernels.numpy_scalars import np_max, np_min
-
-SHOT = SimpleBodies.shot_factor  # (a number frozen into the compiled shot)
 
 
 def pieces_with(njit: Callable, mj_step: Callable, sin: Callable, cos: Callable) -> step.Pieces:
@@ -79,8 +76,9 @@ def pieces_with(njit: Callable, mj_step: Callable, sin: Callable, cos: Callable)
         return fo * w * cos(th), 0.0, -fo * w * sin(th)
 
     @inline
-    def shot(x, y, z):
-        return SHOT * x, SHOT * y, SHOT * z
+    def shot(k, x, y, z):
+        f = k.shot_factor
+        return f * x, f * y, f * z
 
     return step.Pieces(move, face_point, racket, shot)
 
@@ -161,7 +159,8 @@ class SimpleKernel(step.GameKernel):
         lo, hi = b.base_range
         return dict(base_lo=float(lo), base_hi=float(hi), max_rate=float(b.max_rate),
                     drive=b.inertia / b.dt, limit=float(b.limit),
-                    face_offset=float(b.face_offset), pivot_z=float(b.pivot_z))
+                    face_offset=float(b.face_offset), pivot_z=float(b.pivot_z),
+                    shot_factor=float(b.shot_factor))
 
 
 def observations(game: Any, extra: np.ndarray, centre: np.ndarray, scale: np.ndarray,

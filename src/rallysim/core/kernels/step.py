@@ -100,6 +100,7 @@ class GameConstants(NamedTuple):
     limit: float  # the arm's hard stops
     face_offset: float
     pivot_z: float
+    shot_factor: float  # a hit's shuttle velocity / the face's
 
 
 # (the kernel takes the constants as one record: a tuple of numbers costs more per call)
@@ -136,7 +137,8 @@ class Pieces(NamedTuple):
     - ``face_point(a, k, e, j, x, y, z)``: the own-frame point (x, y, z) in the frame of
       player j's face (the box of ``lo[j]``, ``hi[j]``), as (x, y, z);
     - ``racket(a, k, e, j, t)``: the own-frame velocity of that face at fraction t of the step;
-    - ``shot(x, y, z)``: the own-frame velocity a shuttle leaves at, hit by a face moving so.
+    - ``shot(k, x, y, z)``: the own-frame velocity a shuttle leaves at, hit by a face moving
+      so.
     """
 
     move: Callable
@@ -214,7 +216,7 @@ def steps_with(njit: Callable, pieces: Pieces) -> tuple[Callable, Callable, Call
         with two players, its opponent armed (the turn passes); the shot is counted and the
         net touch of the last shot forgotten."""
         rx, ry, rz = racket(a, k, e, j, t)  # own frame
-        sx, sy, sz = shot(rx, ry, rz)
+        sx, sy, sz = shot(k, rx, ry, rz)
         f = a.fwd[e, j]
         vx, vy, vz = sx * f, sy * f, sz
         m = a.motion
