@@ -140,6 +140,38 @@ def test_the_side_by_side_table_matches_its_json():
         assert cells in text, row["label"]
 
 
+def test_the_mujoco_flags_table_matches_its_json():
+    """docs/benchmarks.md's MuJoCo disable flags: every cell is the run's on disk, and the
+    flags named as changing the bits are those the run found changing them."""
+    data = json.loads((DATA / "mujoco_flags.json").read_text())
+    text = (ROOT / "docs" / "benchmarks.md").read_text()
+    simple, humanlike = data["kinds"]["SIMPLE"], data["kinds"]["HUMAN-LIKE"]
+    assert data["n_envs"] == 256 and data["players"] == 2
+
+    def saving(kind: dict, key: str) -> str:
+        return f"{kind['saving'][key]:.1%}".replace("%", " % less") if key in kind["saving"] \
+            else "—"
+
+    built = (f"| as built (µs) | {simple['us_per_step']['as_built']:.1f} | "
+             f"{humanlike['us_per_step']['as_built']:.1f} |")
+    counts = sorted({len(simple["kept"]), len(humanlike["kept"])})
+    kept = (f"| the {'-'.join(map(str, counts))} flags that keep the bits | "
+            f"{saving(simple, 'kept')} | {saving(humanlike, 'kept')} |")
+    rows = [built, kept]
+    changing = list(dict.fromkeys([*simple["change_bits"], *humanlike["change_bits"]]))
+    for name in changing:
+        key = f"kept+{name}"
+        rows.append(f"| and `{name}` (other bits) | {saving(simple, key)} | "
+                    f"{saving(humanlike, key)} |")
+    for row in rows:
+        assert row in text, row
+    assert changing == ["mjDSBL_DAMPER", "mjDSBL_GRAVITY", "mjDSBL_ACTUATION"]
+    assert f"takes {simple['saving']['kept+mjDSBL_GRAVITY']:.0%} off the step" \
+        .replace("%", " %") in text
+    gap = simple["change_bits"]["mjDSBL_GRAVITY"]
+    assert f"part by up to {gap:.1f} within 60 decisions" in text
+
+
 def _seed_row(label: str, per_seed: dict[str, float]) -> str:
     cells = [f"{per_seed[str(s)]:.2f}" if str(s) in per_seed else "" for s in range(10)]
     return f"| {label} | " + " | ".join(cells) + " |"
