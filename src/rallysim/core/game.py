@@ -150,16 +150,17 @@ class Game:
         env's stream)."""
         envs = np.asarray(envs, dtype=np.int64)
         k, p = len(envs), self.n_players
-        receiver = np.asarray(receiver, np.int64)
+        one = isinstance(receiver, int) and -p <= receiver < p  # (the tasks' call)
         # (one receiver for all: np.full is several times cheaper than np.broadcast_to)
-        receiver = (np.full(k, receiver) if receiver.ndim == 0
-                    else np.array(np.broadcast_to(receiver, (k,))))
+        receiver = (np.full(k, receiver % p, np.int64) if one
+                    else np.array(np.broadcast_to(np.asarray(receiver, np.int64), (k,))))
         if k and not (envs.min() >= 0 and envs.max() < self.n_envs):
             raise IndexError(f"games must be 0 to {self.n_envs - 1}, got {envs.tolist()[:10]}")
-        if k and not (-p <= receiver.min() and receiver.max() < p):
-            raise IndexError(f"receivers must be players 0 to {p - 1} (or -{p} to -1, from the "
-                             f"last), got {receiver.tolist()[:10]}")
-        receiver %= p  # (as an index: -1 is the last player)
+        if not one:
+            if k and not (-p <= receiver.min() and receiver.max() < p):
+                raise IndexError(f"receivers must be players 0 to {p - 1} (or -{p} to -1, from "
+                                 f"the last), got {receiver.tolist()[:10]}")
+            receiver %= p  # (as an index: -1 is the last player)
         if base_x is None:
             base_x = np.full((k, self.n_players), -2.7)
         self.bodies.reset(envs, base_x, theta, **body)

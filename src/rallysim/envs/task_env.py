@@ -79,11 +79,11 @@ class TaskEnv(gym.Env):
             raise RuntimeError("the episode has ended (or never began): call reset() first")
         a = validate_action_row(action, self.action_space.shape)
         reward, term, trunc, values = self.task.outcome(a)
-        terminated, truncated = bool(_first(term)), bool(_first(trunc))
+        terminated, truncated = bool(term[0]), bool(trunc[0])
         self._done = terminated or truncated
         if self.render_mode == "human":
             self.render()
-        return (self.task.observe()[0], float(_first(reward)), terminated, truncated,
+        return (self.task.observe()[0], reward.item(0), terminated, truncated,
                 self._info(values))
 
     def _info(self, values: dict) -> dict:

@@ -12,7 +12,12 @@ from typing import Any
 import numpy as np
 from gymnasium.vector import VectorEnv
 
-from rallysim.core.validation import check_options, positive_int, validate_seed
+from rallysim.core.validation import (
+    check_options,
+    positive_int,
+    validate_actions,
+    validate_seed,
+)
 
 try:  # Gymnasium >= 1.1
     from gymnasium.vector import AutoresetMode
@@ -91,9 +96,10 @@ class NativeVectorEnv(VectorEnv):
 
     def _restart(self, units: np.ndarray, options: dict | None) -> None:
         self._reset_units(units, options)
-        for u in units:
-            if u < len(self._views):
-                self._views[u].new_episode()
+        if self._views:
+            for u in units:
+                if u < len(self._views):
+                    self._views[u].new_episode()
 
     def _blank_info(self, info: dict, units: np.ndarray) -> None:
         """Clear the events of ``units`` that were only being reset this step."""
@@ -153,8 +159,10 @@ class NativeVectorEnv(VectorEnv):
         done = term | trunc
         obs = self._observe()
         k = self.slots_per_unit
+        if k > 1:
+            term, trunc = np.repeat(term, k), np.repeat(trunc, k)
         if self._same_step and done.any():
-            slot_done = np.repeat(done, k)
+            slot_done = np.repeat(done, k) if k > 1 else done
             final_info = {key: v.copy() if isinstance(v, np.ndarray) else v
                           for key, v in info.items()}
             final = np.full(obs.shape, np.nan, np.float32)
@@ -168,7 +176,7 @@ class NativeVectorEnv(VectorEnv):
             obs = self._observe_again(obs, units)
         else:
             self._needs_reset = done
-        return obs, reward, np.repeat(term, k), np.repeat(trunc, k), info
+        return obs, reward, term, trunc, info
 
 
 class TaskVectorEnv(NativeVectorEnv):
@@ -213,8 +221,6 @@ class TaskVectorEnv(NativeVectorEnv):
         return {self.goal_key: self.task.goal.copy()}
 
     def _step_units(self, actions: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
-        from rallysim.core.validation import validate_actions
-
         return self.task.step(validate_actions(actions, (self.num_envs, self.action_size)))
 
     def _observe(self) -> np.ndarray:

@@ -59,6 +59,8 @@ class HumanLikeReturnTask:
 
     def reset_options(self, options: dict[str, Any] | None, k: int) -> dict[str, np.ndarray]:
         """The given reset options for ``k`` environments, checked (``ValueError``)."""
+        if options is None:  # (every autoreset: no specs to build)
+            return {}
         given = read_options(options, {
             "target_velocity": ((k, 3), np.array([[-TARGET_SCALE, TARGET_SCALE]] * 3)),
             "hips_position": ((k, 2), self.bodies.hips_range)})

@@ -132,6 +132,8 @@ class ReturnTask:
 
     def reset_options(self, options: dict[str, Any] | None, k: int) -> dict[str, np.ndarray]:
         """The given reset options for ``k`` environments, checked (``ValueError``)."""
+        if options is None:  # (every autoreset: no specs to build)
+            return {}
         b = self.game.bodies
         return read_options(options, {"target_depth": ((k,), TARGET_DEPTH_RANGE),
                                       "base_x": ((k,), b.base_range),
