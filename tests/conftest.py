@@ -76,6 +76,20 @@ def run_until_landed(game: Game, max_decisions: int = 500):
     raise AssertionError("the shuttle never landed")
 
 
+def humanlike_swing_at_face(game: Game) -> np.ndarray:
+    """Game 0 (one HUMAN-LIKE player) restarted with the hips at x = -3, the shuttle held 5 cm
+    along the handle from the face's centre; the actions (1, 1, 15) of a full-strength swing
+    that meets it within a decision."""
+    game.reset(np.array([0]), base_x=np.array([[-3.0]]), theta=0.0)
+    game.shuttle.pos[0] = game.bodies.face_centre()[0, 0] + [0.0, 0.0, 0.05]
+    game.shuttle.vel[0] = 0.0
+    game._refresh()
+    swing = np.zeros((1, 1, 15))
+    swing[..., 2:10] = [0, 0, 0.3, 0, 0, -1, 0, 0]
+    swing[..., 10:] = 1.0
+    return swing
+
+
 def gl_problem() -> str | None:
     """Why no OpenGL renderer can be made here (None: rendering works)."""
     try:

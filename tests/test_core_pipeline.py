@@ -26,6 +26,7 @@ from rallysim.core.shuttle import make_shuttle_model
 from rallysim.core.state import SERVE, RallyState
 from rallysim.core.streams import Streams
 from rallysim.players import HUMANLIKE
+from tests.conftest import humanlike_swing_at_face
 
 
 def swing_until_hit(g: Game, decisions: int = 10):
@@ -81,14 +82,7 @@ def test_hit_velocity_is_the_racket_velocity_at_the_hit_and_nan_otherwise():
 def test_humanlike_hit_velocity_comes_through_the_events():
     b = HumanLikeBodies(1, 1)
     g = Game(1, 1, seed=0, bodies=b, serve=HumanLikeServe())
-    g.reset(np.array([0]), base_x=np.array([[-3.0]]), theta=0.0)
-    g.shuttle.pos[0] = b.face_centre()[0, 0] + [0.0, 0.0, 0.05]
-    g.shuttle.vel[0] = 0.0
-    g._refresh()
-    a = np.zeros((1, 1, 15))
-    a[..., 2:10] = [0, 0, 0.3, 0, 0, -1, 0, 0]
-    a[..., 10:] = 1.0
-    ev = g.step(a)
+    ev = g.step(humanlike_swing_at_face(g))
     assert ev.hit[0, 0] and ev.hit_velocity[0, 0, 2] > 1.0
     assert np.linalg.norm(ev.hit_velocity[0, 0]) == pytest.approx(ev.hit_speed[0, 0])
     assert not hasattr(b, "hit_velocity")  # one path for every player model

@@ -16,7 +16,7 @@ from rallysim.core.humanlike import (
 )
 from rallysim.envs.humanlike_return_v0 import HumanLikeReturnEnv, HumanLikeReturnVectorEnv
 from rallysim.policies.scripted_swing import ScriptedSwing
-from tests.conftest import check_seeded_and_batched
+from tests.conftest import check_seeded_and_batched, humanlike_swing_at_face
 
 # docs/reference.md §10's joint table, degrees, in JOINTS order
 SPEC_RANGES = [(-15, 15), (-15, 15), (-90, 90), (-75, 75), (-85, 85), (0, 100), (-90, 90),
@@ -176,14 +176,7 @@ def test_face_frame_and_racket_velocity():
         assert g._q[0, 0] == pytest.approx(expected, abs=1e-12)
     # a hit's racket velocity (the compiled steps') is the face centre's displacement over
     # the physics step of the hit / dt, in the hitter's own frame
-    g.reset(np.array([0]), base_x=np.array([[-3.0]]))
-    g.shuttle.pos[0] = b.face_centre()[0, 0] + [0.0, 0.0, 0.05]
-    g.shuttle.vel[0] = 0.0
-    g._refresh()
-    swing = np.zeros((1, 1, 15))
-    swing[..., 2:10] = [0, 0, 0.3, 0, 0, -1, 0, 0]
-    swing[..., 10:] = 1.0
-    b.set_actions(swing)
+    b.set_actions(humanlike_swing_at_face(g))
     g.events = g._new_events.take()
     for _ in range(5):
         before = b.face_centre()
